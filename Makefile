@@ -1,0 +1,39 @@
+# Quick start: `make test` (installs into .venv and runs the suite), `make demo` (runs the main job).
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+PIP := $(PY) -m pip
+STAMP := $(VENV)/.installed
+export MENAGERIE_ROOT ?= $(shell test -d ../shared/menagerie && cd ../shared/menagerie && pwd)
+
+.PHONY: install test demo bench lint clean
+
+install: $(STAMP)
+
+# Order matters: CPU torch first (any other torch spec pulls CUDA wheels), then our package and its
+# extras, then mushroom-rl without its pins (torch 2.5.1, numpy 1.24) so nothing gets downgraded.
+$(STAMP): pyproject.toml
+	test -d $(VENV) || $(PYTHON) -m venv $(VENV)
+	$(PIP) install -q --upgrade pip
+	$(PIP) install -q torch==2.13.0
+	$(PIP) install -q -e ".[dev]"
+	$(PIP) install -q --no-deps mushroom-rl==1.10.2
+	$(PY) -c "import torch, numpy; assert not torch.version.cuda, 'CUDA torch installed'; \
+	  assert int(numpy.__version__.split('.')[0]) >= 2, 'numpy was downgraded'"
+	touch $(STAMP)
+
+test: install
+	$(PY) -m ruff check loco_mujoco tests bench
+	$(PY) -m pytest -q
+
+demo: install
+	$(PY) -m loco_mujoco.demo
+
+bench: install
+	$(PY) bench/env_throughput.py
+
+lint: install
+	$(PY) -m ruff check loco_mujoco tests bench
+
+clean:
+	rm -rf $(VENV) .pytest_cache .ruff_cache *.egg-info

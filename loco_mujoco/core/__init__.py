@@ -1,0 +1,1 @@
+"""Shared environment machinery: the LocoEnv base class, task names, rewards."""

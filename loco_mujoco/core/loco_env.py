@@ -1,0 +1,436 @@
+"""LocoEnv: the Mushroom-RL MuJoCo environment every embodiment derives from.
+
+An embodiment subclass only declares its model (where it comes from, which joints are arms, the home
+pose), its tasks and its fall bounds; everything else (observation layout, control mode, rewards,
+termination, seeding) lives here. The hot path ``step`` uses index arrays prepared at construction.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import mujoco
+import numpy as np
+from mushroom_rl.core import MDPInfo
+from mushroom_rl.utils.mujoco import ObservationType
+from mushroom_rl.utils.spaces import Box
+
+from loco_mujoco._compat import MuJoCo
+from loco_mujoco.core import rewards as rw
+from loco_mujoco.core.task_names import DATASET_TYPES, DEFAULT_DATASET_TYPE, parse_task_name, register_environment
+from loco_mujoco.models import spec_edit
+
+CONTROL_MODES = ("torque", "pd")
+
+# Simulation defaults, chosen by bench/timestep_study.py (see BENCHMARKS.md): implicit-in-velocity
+# integration at 2 ms is as stable as 1 ms with 10 substeps on every robot here and twice as fast.
+DEFAULT_TIMESTEP = 0.002
+DEFAULT_N_SUBSTEPS = 5
+DEFAULT_INTEGRATOR = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+
+
+@dataclass(frozen=True)
+class Task:
+    """What a task asks for: the forward speed its reward targets (until datasets provide it)."""
+
+    target_velocity: float
+    description: str = ""
+
+
+class PhysicsDivergedWarning(RuntimeWarning):
+    """The simulation produced non-finite values; the episode was terminated."""
+
+
+class LocoEnv(MuJoCo):
+    """Base class of all locomotion environments. Build one with ``LocoEnv.make("UnitreeH1.walk")``."""
+
+    # ---- declared by each embodiment -------------------------------------------------------------
+    TASKS: ClassVar[dict[str, Task]] = {}
+    MODES: ClassVar[tuple[str, ...]] = ()
+    DATASET_TYPES: ClassVar[tuple[str, ...]] = DATASET_TYPES
+    DEFAULT_CONTROL: ClassVar[str] = "torque"
+    TASK_REWARD: ClassVar[str] = "target_velocity"
+    ARM_JOINTS: ClassVar[tuple[str, ...]] = ()
+    LEG_ROOTS: ClassVar[tuple[str, str] | None] = None  # (left, right) for self-collision filtering
+    ROOT_HEIGHT_RANGE: ClassVar[tuple[float, float]] = (0.0, math.inf)
+    MAX_TILT: ClassVar[float] = math.pi / 2  # fallen when the root's z axis leans more than this (rad)
+    GOAL_OBSERVATION: ClassVar[bool] = False
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if cls.TASKS:
+            register_environment(cls)
+            cls.register()  # Mushroom-RL's registry: Environment.make("UnitreeH1.walk") works too
+
+    def __init__(
+        self,
+        task: str | None = None,
+        mode: str | None = None,
+        dataset_type: str = DEFAULT_DATASET_TYPE,
+        control: str | None = None,
+        disable_arms: bool = True,
+        reward_type: str = "task",
+        reward_params: dict[str, Any] | None = None,
+        timestep: float = DEFAULT_TIMESTEP,
+        n_substeps: int = DEFAULT_N_SUBSTEPS,
+        horizon: int = 1000,
+        gamma: float = 0.99,
+        seed: int | None = None,
+        **viewer_params: Any,
+    ):
+        """Build the model for ``task`` and compile it once.
+
+        Args:
+            task: one of ``TASKS`` (default: the first).
+            mode: one of ``MODES`` for environments that have them.
+            dataset_type: ``real``, ``perfect`` or ``preference``.
+            control: ``torque`` (normalised motor torques) or ``pd`` (normalised joint targets).
+            disable_arms: remove arm (and head) joints and actuators; arms are welded at the home pose.
+            reward_type: ``task`` (the task's own), ``target_velocity``, ``velocity_vector``, ``custom``
+                (``reward_params={"callback": f}``) or ``none``.
+            timestep, n_substeps: physics step and steps per control step (control runs at 100 Hz).
+        """
+        task = task if task is not None else next(iter(self.TASKS))
+        self._validate_choice("task", task, tuple(self.TASKS))
+        if self.MODES:
+            mode = mode if mode is not None else self.MODES[0]
+            self._validate_choice("mode", mode, self.MODES)
+        elif mode is not None:
+            raise ValueError(f"{type(self).__name__} has no modes, got mode={mode!r}")
+        self._validate_choice("dataset_type", dataset_type, self.DATASET_TYPES)
+        control = control or self.DEFAULT_CONTROL
+        self._validate_choice("control", control, CONTROL_MODES)
+        self._validate_choice("reward_type", reward_type, rw.REWARD_TYPES)
+        if not (timestep > 0 and int(n_substeps) >= 1):
+            raise ValueError(f"timestep must be > 0 and n_substeps >= 1, got {timestep} and {n_substeps}")
+
+        self.task_name = task
+        self.mode = mode
+        self.dataset_type = dataset_type
+        self.control = control
+        self.disable_arms = disable_arms
+        self.task = self.TASKS[task]
+        self._rng = np.random.default_rng(seed)
+
+        spec = self.build_spec(control=control, disable_arms=disable_arms)
+        spec.option.integrator = DEFAULT_INTEGRATOR
+        model = spec.compile()
+        joint_names = [model.joint(j).name for j in range(model.njnt)]
+        observation_spec = [(f"q_{n}", n, ObservationType.JOINT_POS) for n in joint_names]
+        observation_spec += [(f"dq_{n}", n, ObservationType.JOINT_VEL) for n in joint_names]
+
+        previous_hook = mujoco.get_mju_user_warning()
+        super().__init__(model, [], observation_spec, gamma, horizon, timestep=timestep,
+                         n_substeps=int(n_substeps), **self._default_viewer_params(viewer_params))
+        # Mushroom installs a process-wide hook that raises on any MuJoCo warning; we detect divergence
+        # ourselves (see step) and leave other MuJoCo users in the process undisturbed.
+        mujoco.set_mju_user_warning(previous_hook)
+        self._model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
+
+        self._setup_observation(joint_names)
+        self._setup_action()
+        self._init_qpos = self.home_qpos(self._model)
+        self._goal = np.array([1.0, 0.0, self.task.target_velocity])
+        self._reward_fn = self._make_reward(reward_type, reward_params or {})
+        self._diverged_warned = False
+        self._cos_max_tilt = math.cos(self.MAX_TILT)
+        self._mdp_info = MDPInfo(Box(self._obs_low, self._obs_high), Box(-np.ones(self._n_act), np.ones(self._n_act)),
+                                 gamma, horizon, self.dt)
+
+    # ---- construction ---------------------------------------------------------------------------
+    @classmethod
+    def make(cls, name: str, **kwargs: Any) -> LocoEnv:
+        """Build an environment from a task name ``<Env>.<task>[.<mode>][.<dataset_type>]``."""
+        from loco_mujoco.core.task_names import environment_class
+
+        parsed = parse_task_name(name)
+        env_cls = environment_class(parsed.env)
+        return env_cls(task=parsed.task, mode=parsed.mode, dataset_type=parsed.dataset_type, **kwargs)
+
+    @classmethod
+    def generate(cls, task: str | None = None, *rest: str, **kwargs: Any) -> LocoEnv:
+        """Mushroom-RL's factory hook: ``Environment.make("UnitreeH1.walk.real")`` lands here."""
+        return LocoEnv.make(".".join([cls.__name__] + ([task] if task else [next(iter(cls.TASKS))]) + list(rest)),
+                            **kwargs)
+
+    def build_spec(self, control: str, disable_arms: bool) -> mujoco.MjSpec:
+        """The robot's MjSpec with the root named, arms handled, collisions filtered, control mode set."""
+        spec = self.load_spec()
+        spec_edit.name_free_joint(spec)
+        self._home_by_joint = spec_edit.keyframe_qpos(spec, self.HOME_KEY)
+        fixed = self.fixed_joints(spec, disable_arms)
+        spec_edit.fix_joints(spec, fixed, {j: float(self._home_by_joint[j][0]) for j in fixed})
+        if self.LEG_ROOTS is not None:
+            spec_edit.filter_self_collisions(spec, *self.LEG_ROOTS)
+        if control == "torque":
+            spec_edit.to_torque_control(spec)
+        else:
+            spec_edit.to_position_control(spec, self.pd_gains(spec))
+        return spec
+
+    HOME_KEY: ClassVar[str | int] = 0
+
+    def load_spec(self) -> mujoco.MjSpec:
+        """The unmodified robot model in a scene with a floor named ``floor``."""
+        raise NotImplementedError
+
+    def fixed_joints(self, spec: mujoco.MjSpec, disable_arms: bool) -> list[str]:
+        """Joints removed from the model; by default the arm joints when arms are disabled."""
+        return [j for j in self.ARM_JOINTS if spec.joint(j) is not None] if disable_arms else []
+
+    def pd_gains(self, spec: mujoco.MjSpec) -> dict[str, tuple[float, float]]:
+        """PD gains per actuated joint. Default: kp = peak torque per rad, kd = kp / 50."""
+        gains = {}
+        for act in spec.actuators:
+            peak = float(np.max(np.abs(spec_edit._torque_range(spec, act))))
+            gains[act.target] = (peak, peak / 50.0)
+        return gains
+
+    def home_qpos(self, model: mujoco.MjModel) -> np.ndarray:
+        """The home pose (from the model's keyframe) in ``model``'s qpos layout."""
+        return np.concatenate([self._home_by_joint[model.joint(j).name] for j in range(model.njnt)])
+
+    @staticmethod
+    def load_model(xml_file: Any) -> mujoco.MjModel:
+        """Accept an already compiled MjModel (we build ours from an MjSpec) besides Mushroom's inputs."""
+        if isinstance(xml_file, mujoco.MjModel):
+            return xml_file
+        if isinstance(xml_file, mujoco.MjSpec):
+            return xml_file.compile()
+        return MuJoCo.load_model(xml_file)
+
+    def _setup_observation(self, joint_names: list[str]) -> None:
+        """Index arrays from qpos/qvel into the observation; the root's x and y are left out."""
+        m = self._model
+        root = m.joint(spec_edit.ROOT_JOINT)
+        self.obs_helper.remove_obs(f"q_{spec_edit.ROOT_JOINT}", 0)
+        self.obs_helper.remove_obs(f"q_{spec_edit.ROOT_JOINT}", 1)
+        skip = {int(root.qposadr[0]), int(root.qposadr[0]) + 1}
+        qpos_idx, qvel_idx = [], []
+        for name in joint_names:
+            j = m.joint(name)
+            width_q = {0: 7, 1: 4}.get(int(j.type[0]), 1)
+            width_v = {0: 6, 1: 3}.get(int(j.type[0]), 1)
+            qpos_idx += [i for i in range(int(j.qposadr[0]), int(j.qposadr[0]) + width_q) if i not in skip]
+            qvel_idx += list(range(int(j.dofadr[0]), int(j.dofadr[0]) + width_v))
+        self._qpos_idx = np.array(qpos_idx, dtype=np.intp)
+        self._qvel_idx = np.array(qvel_idx, dtype=np.intp)
+        self._n_qpos_obs = len(qpos_idx)
+        n_joint_obs = len(qpos_idx) + len(qvel_idx)
+        self._qpos_view, self._qvel_view = self._data.qpos, self._data.qvel  # fixed buffers: cache views
+        self._obs_buffer_len = n_joint_obs + (3 if self.GOAL_OBSERVATION else 0)
+        if self.GOAL_OBSERVATION:
+            self.obs_helper.add_obs("goal_velocity", 3)
+
+        self._obs_idx = {k: np.asarray(v, dtype=np.intp) for k, v in self.obs_helper.obs_idx_map.items()}
+        low = np.full(self._obs_buffer_len, -np.inf)
+        high = np.full(self._obs_buffer_len, np.inf)
+        quat = self._obs_idx[f"q_{spec_edit.ROOT_JOINT}"][1:5]  # a unit quaternion stays in [-1, 1]
+        low[quat], high[quat] = -1.0, 1.0
+        if self.GOAL_OBSERVATION:
+            goal = self._obs_idx["goal_velocity"]
+            low[goal[:2]], high[goal[:2]] = -1.0, 1.0
+        self._obs_low, self._obs_high = low, high
+        root_q = self._obs_idx[f"q_{spec_edit.ROOT_JOINT}"]
+        self._root_z_i, self._qx_i, self._qy_i = int(root_q[0]), int(root_q[2]), int(root_q[3])
+        self._vel_root_idx = self._obs_idx[f"dq_{spec_edit.ROOT_JOINT}"]
+
+    def _setup_action(self) -> None:
+        """Actions in [-1, 1] map linearly onto each actuator's ctrlrange (torque or joint target)."""
+        m = self._model
+        if not np.all(m.actuator_ctrllimited):
+            raise ValueError("every actuator needs a ctrlrange to normalise actions")
+        lo, hi = m.actuator_ctrlrange[:, 0].copy(), m.actuator_ctrlrange[:, 1].copy()
+        self._ctrl_center = (hi + lo) / 2.0
+        self._ctrl_half = (hi - lo) / 2.0
+        self._n_act = m.nu
+        self._ctrl_view = self._data.ctrl
+        self.actuator_names = [m.actuator(i).name for i in range(m.nu)]
+
+    def _make_reward(self, reward_type: str, params: dict[str, Any]) -> rw.RewardFn:
+        if reward_type == "task":
+            reward_type = self.TASK_REWARD
+        vel = self._vel_root_idx
+        allowed = {"target_velocity": {"target_velocity"}, "custom": {"callback"}}.get(reward_type, set())
+        unknown = set(params) - allowed
+        if unknown:
+            raise ValueError(f"unknown reward_params {sorted(unknown)} for reward_type '{reward_type}'; "
+                             f"valid: {sorted(allowed) or 'none'}")
+        if reward_type == "target_velocity":
+            return rw.TargetVelocityReward(vel[0], params.get("target_velocity", self.task.target_velocity))
+        if reward_type == "velocity_vector":
+            if not self.GOAL_OBSERVATION:
+                raise ValueError(f"reward_type 'velocity_vector' needs a goal in the observation; "
+                                 f"{type(self).__name__} has none. Use 'target_velocity'.")
+            return rw.VelocityVectorReward(vel[:2], self._obs_idx["goal_velocity"])
+        if reward_type == "custom":
+            if "callback" not in params:
+                raise ValueError("reward_type 'custom' needs reward_params={'callback': f(state, action, next_state)}")
+            return rw.CustomReward(params["callback"])
+        return rw.NoReward()
+
+    @staticmethod
+    def _validate_choice(what: str, value: Any, valid: tuple[str, ...]) -> None:
+        if value not in valid:
+            raise ValueError(f"invalid {what} {value!r}; valid: {', '.join(map(str, valid))}")
+
+    @staticmethod
+    def _default_viewer_params(params: dict[str, Any]) -> dict[str, Any]:
+        import os
+
+        if not os.environ.get("DISPLAY"):
+            params = {"headless": True, **params}
+        return params
+
+    # ---- the MDP --------------------------------------------------------------------------------
+    def seed(self, seed: int | None) -> None:
+        """Seed this environment's own generator (goal sampling, later: start states, randomization)."""
+        self._rng = np.random.default_rng(seed)
+
+    def reset(self, obs: np.ndarray | None = None) -> np.ndarray:
+        """Start an episode from the home pose, or from ``obs`` (an observation in this env's layout)."""
+        m, d = self._model, self._data
+        mujoco.mj_resetData(m, d)
+        d.qpos[:] = self._init_qpos
+        self._reset_goal()
+        if obs is not None:
+            self._write_observation(obs)
+        mujoco.mj_forward(m, d)
+        self._obs = self._build_observation()
+        return self._obs
+
+    def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, dict[str, Any]]:
+        action = self._check_action(action)
+        np.clip(action, -1.0, 1.0, out=action)
+        self._ctrl_view[:] = self._ctrl_center + self._ctrl_half * action
+        mujoco.mj_step(self._model, self._data, self._n_substeps)
+        obs = self._build_observation()
+        total = obs.sum()
+        diverged = total != total or total in (math.inf, -math.inf)
+        if diverged:
+            diverged = self._handle_divergence(obs)
+            if diverged:
+                obs = self._obs.copy()
+        absorbing = diverged or self.is_absorbing(obs)
+        reward = self.reward(self._obs, action, obs, absorbing)
+        info = {
+            "root_pos": self._qpos_view[:3].copy(),
+            "root_vel": self._qvel_view[:3].copy(),
+            "fallen": absorbing,
+            "physics_diverged": diverged,
+        }
+        self._obs = obs
+        return obs, reward, absorbing, info
+
+    def _check_action(self, action: Any) -> np.ndarray:
+        a = np.array(action, dtype=np.float64)  # a copy: the caller's array is never modified
+        if a.shape != (self._n_act,):
+            raise ValueError(f"action must have shape ({self._n_act},) for {type(self).__name__} "
+                             f"({self.control} control), got shape {a.shape}")
+        total = a.sum()
+        if total != total or total in (math.inf, -math.inf):
+            bad = np.flatnonzero(~np.isfinite(a))
+            if bad.size:
+                names = [self.actuator_names[i] for i in bad]
+                raise ValueError(f"action contains NaN or inf at indices {bad.tolist()} ({', '.join(names)}); "
+                                 f"actions must be finite numbers in [-1, 1]")
+        return a
+
+    def _handle_divergence(self, obs: np.ndarray) -> bool:
+        if np.all(np.isfinite(obs)):  # a finite sum overflowing: not a divergence
+            return False
+        if not self._diverged_warned:
+            warnings.warn(f"{type(self).__name__}: the simulation diverged (non-finite state); the episode was "
+                          "terminated as absorbing and info['physics_diverged'] is True. Reset before stepping "
+                          "again. Frequent divergence means the timestep is too large for this model.",
+                          PhysicsDivergedWarning, stacklevel=3)
+            self._diverged_warned = True
+        return True
+
+    def _build_observation(self) -> np.ndarray:
+        obs = np.empty(self._obs_buffer_len)
+        n = self._n_qpos_obs
+        obs[:n] = self._qpos_view[self._qpos_idx]
+        m = n + len(self._qvel_idx)
+        obs[n:m] = self._qvel_view[self._qvel_idx]
+        if self.GOAL_OBSERVATION:
+            obs[m:] = self._goal
+        return obs
+
+    def _write_observation(self, obs: np.ndarray) -> None:
+        obs = np.asarray(obs, dtype=np.float64)
+        if obs.shape != (self._obs_buffer_len,):
+            raise ValueError(f"observation must have shape ({self._obs_buffer_len},), got {obs.shape}")
+        if not np.all(np.isfinite(obs)):
+            raise ValueError("observation to reset from contains NaN or inf")
+        n = self._n_qpos_obs
+        self._data.qpos[self._qpos_idx] = obs[:n]
+        self._data.qvel[self._qvel_idx] = obs[n : n + len(self._qvel_idx)]
+        if self.GOAL_OBSERVATION:
+            self._goal[:] = obs[n + len(self._qvel_idx) :]
+
+    def _reset_goal(self) -> None:
+        """Embodiments with a goal in the observation choose it here (default: forward at target speed)."""
+
+    def is_absorbing(self, obs: np.ndarray) -> bool:
+        """Fallen: root height outside ``ROOT_HEIGHT_RANGE`` or root tilted more than ``MAX_TILT``."""
+        z = obs[self._root_z_i]
+        qx, qy = obs[self._qx_i], obs[self._qy_i]
+        up_z = 1.0 - 2.0 * (qx * qx + qy * qy)  # z component of the root's z axis in the world
+        lo, hi = self.ROOT_HEIGHT_RANGE
+        return bool(z < lo or z > hi or up_z < self._cos_max_tilt)
+
+    def reward(self, obs: np.ndarray, action: np.ndarray, next_obs: np.ndarray, absorbing: bool) -> float:
+        return self._reward_fn(obs, action, next_obs)
+
+    # ---- queries --------------------------------------------------------------------------------
+    def get_obs_idx(self, name: str) -> np.ndarray:
+        """Indices of observation entry ``name`` (``q_<joint>``, ``dq_<joint>``, ``q_root`` ...)."""
+        if name not in self._obs_idx:
+            import difflib
+
+            close = difflib.get_close_matches(name, list(self._obs_idx), n=3)
+            hint = f" Did you mean {', '.join(map(repr, close))}?" if close else ""
+            raise KeyError(f"no observation entry '{name}' in {type(self).__name__}.{hint} "
+                           f"Valid: {', '.join(self._obs_idx)}")
+        return self._obs_idx[name].copy()
+
+    @property
+    def obs_names(self) -> list[str]:
+        """Observation entries in order."""
+        return list(self._obs_idx)
+
+    @property
+    def model(self) -> mujoco.MjModel:
+        return self._model
+
+    @property
+    def data(self) -> mujoco.MjData:
+        return self._data
+
+    def render_rgb(self, width: int = 640, height: int = 480) -> np.ndarray:
+        """An offscreen RGB frame (H, W, 3) from a camera that follows the robot."""
+        renderer = getattr(self, "_rgb_renderer", None)
+        if renderer is None or (renderer.width, renderer.height) != (width, height):
+            if renderer is not None:
+                renderer.close()
+            self._model.vis.global_.offwidth = max(self._model.vis.global_.offwidth, width)
+            self._model.vis.global_.offheight = max(self._model.vis.global_.offheight, height)
+            renderer = self._rgb_renderer = mujoco.Renderer(self._model, height, width)
+            cam = self._rgb_camera = mujoco.MjvCamera()
+            cam.type = mujoco.mjtCamera.mjCAMERA_TRACKING
+            cam.trackbodyid = int(self._model.body(self._model.joint(spec_edit.ROOT_JOINT).bodyid[0]).id)
+            cam.distance = 2.0 * max(float(self._model.stat.extent), 0.75)
+            cam.elevation, cam.azimuth = -15.0, 135.0
+        renderer.update_scene(self._data, camera=self._rgb_camera)
+        return renderer.render()
+
+    def stop(self) -> None:
+        renderer = getattr(self, "_rgb_renderer", None)
+        if renderer is not None:
+            renderer.close()
+            self._rgb_renderer = None
+        super().stop()

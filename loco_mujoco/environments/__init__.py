@@ -1,0 +1,7 @@
+"""One module per embodiment: which model, which joints, which tasks."""
+
+from loco_mujoco.environments.talos import Talos
+from loco_mujoco.environments.unitree_a1 import UnitreeA1
+from loco_mujoco.environments.unitree_h1 import UnitreeH1
+
+__all__ = ["Talos", "UnitreeA1", "UnitreeH1"]

@@ -1,0 +1,1 @@
+"""Robot models: where they come from and how we edit them before compiling."""
