@@ -47,14 +47,15 @@ def main(argv: list[str] | None = None) -> None:
     returns, lengths, falls, steps, sim_time = [], [], 0, 0, 0.0
     for episode in range(args.episodes):
         env.reset()
-        ret, absorbing = 0.0, False
-        for t in range(env.info.horizon):
+        ret, length = 0.0, 0
+        for _ in range(env.info.horizon):
             action = rng.uniform(-1.0, 1.0, n_act)
             t0 = time.perf_counter()
             _, reward, absorbing, _ = env.step(action)
             sim_time += time.perf_counter() - t0
             ret += reward
             steps += 1
+            length += 1
             if episode == 0 and args.video and video_error is None and len(frames) < MAX_FRAMES:
                 try:
                     frames.append(env.render_rgb(480, 360))
@@ -64,7 +65,7 @@ def main(argv: list[str] | None = None) -> None:
                 falls += 1
                 break
         returns.append(ret)
-        lengths.append(t + 1)
+        lengths.append(length)
     print(f"random policy, {args.episodes} episodes: mean return {np.mean(returns):.2f} "
           f"(task reward, max {env.info.horizon}), mean length {np.mean(lengths):.0f} steps, "
           f"{falls} falls, env.step at {steps / sim_time:.0f} steps/s")
