@@ -182,11 +182,11 @@ class LocoEnv(MuJoCo):
         return [j for j in self.ARM_JOINTS if spec.joint(j) is not None] if disable_arms else []
 
     def pd_gains(self, spec: mujoco.MjSpec) -> dict[str, tuple[float, float]]:
-        """PD gains per actuated joint. Default: kp = peak torque per rad, kd = kp / 50."""
+        """PD gains per actuated joint. Default: peak torque at 0.25 rad error (kp = 4 x peak), kd = kp / 25."""
         gains = {}
         for act in spec.actuators:
-            peak = float(np.max(np.abs(spec_edit._torque_range(spec, act))))
-            gains[act.target] = (peak, peak / 50.0)
+            kp = 4.0 * float(np.max(np.abs(spec_edit._torque_range(spec, act))))
+            gains[act.target] = (kp, kp / 25.0)
         return gains
 
     def home_qpos(self, model: mujoco.MjModel) -> np.ndarray:

@@ -1,0 +1,44 @@
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+import loco_mujoco as lm  # noqa: E402
+
+BASE_TASKS = [t for t in lm.list_tasks() if t.count(".") == 1]
+
+
+@pytest.fixture(scope="session")
+def make_env():
+    """Build each (name, kwargs) environment once per session; tests reset it before use."""
+    cache = {}
+
+    def _make(name, **kwargs):
+        key = (name, tuple(sorted(kwargs.items())))
+        if key not in cache:
+            cache[key] = lm.LocoEnv.make(name, **kwargs)
+        env = cache[key]
+        env.seed(0)
+        env.reset()
+        return env
+
+    return _make
+
+
+def random_rollout(env, seed, n_steps):
+    """Observations, rewards and absorbing flags of a seeded random-action rollout with resets."""
+    env.seed(seed)
+    rng = np.random.default_rng(seed)
+    obs = [env.reset()]
+    rewards, absorbing = [], []
+    n_act = env.info.action_space.shape[0]
+    for _ in range(n_steps):
+        o, r, a, _ = env.step(rng.uniform(-1, 1, n_act))
+        obs.append(o.copy())
+        rewards.append(r)
+        absorbing.append(a)
+        if a:
+            obs.append(env.reset())
+    return np.array(obs), np.array(rewards), np.array(absorbing)
