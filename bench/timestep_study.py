@@ -20,11 +20,16 @@ import numpy as np
 
 from loco_mujoco import LocoEnv
 
-I = mujoco.mjtIntegrator
-CONFIGS = [("RK4", I.mjINT_RK4, 0.001), ("Euler", I.mjINT_EULER, 0.001), ("implicitfast", I.mjINT_IMPLICITFAST, 0.001),
-           ("implicitfast", I.mjINT_IMPLICITFAST, 0.002), ("implicitfast", I.mjINT_IMPLICITFAST, 0.0025),
-           ("implicitfast", I.mjINT_IMPLICITFAST, 0.005)]
-REFERENCE = (I.mjINT_IMPLICITFAST, 0.00025)
+INT = mujoco.mjtIntegrator
+CONFIGS = [
+    ("RK4", INT.mjINT_RK4, 0.001),
+    ("Euler", INT.mjINT_EULER, 0.001),
+    ("implicitfast", INT.mjINT_IMPLICITFAST, 0.001),
+    ("implicitfast", INT.mjINT_IMPLICITFAST, 0.002),
+    ("implicitfast", INT.mjINT_IMPLICITFAST, 0.0025),
+    ("implicitfast", INT.mjINT_IMPLICITFAST, 0.005),
+]
+REFERENCE = (INT.mjINT_IMPLICITFAST, 0.00025)
 
 
 def make(name: str, integrator: int, dt: float, control: str | None = None) -> LocoEnv:

@@ -223,3 +223,15 @@ def test_simulation_defaults_are_100hz_implicitfast(make_env):
     env = make_env("UnitreeH1.walk")
     assert env.model.opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     assert math.isclose(env.model.opt.timestep * env._n_substeps, 0.01)
+
+
+@pytest.mark.parametrize("name, robot, entry, key", [("UnitreeH1.walk", "unitree_h1", "scene", "home"),
+                                                      ("UnitreeA1.simple", "unitree_a1", "scene", "home")])
+def test_episodes_start_from_the_menagerie_home_keyframe(name, robot, entry, key):
+    from loco_mujoco.models.menagerie import menagerie_xml
+
+    reference = mujoco.MjModel.from_xml_path(str(menagerie_xml(robot, entry)))
+    env = lm.LocoEnv.make(name, disable_arms=False)
+    env.reset()
+    np.testing.assert_array_equal(env.data.qpos, reference.key(key).qpos)
+    np.testing.assert_array_equal(env.data.qvel, 0.0)

@@ -7,7 +7,9 @@ termination, seeding) lives here. The hot path ``step`` uses index arrays prepar
 
 from __future__ import annotations
 
+import difflib
 import math
+import os
 import warnings
 from dataclasses import dataclass
 from typing import Any, ClassVar
@@ -58,6 +60,7 @@ class LocoEnv(MuJoCo):
     ROOT_HEIGHT_RANGE: ClassVar[tuple[float, float]] = (0.0, math.inf)
     MAX_TILT: ClassVar[float] = math.pi / 2  # fallen when the root's z axis leans more than this (rad)
     GOAL_OBSERVATION: ClassVar[bool] = False
+    HOME_KEY: ClassVar[str | int] = 0  # keyframe (name or index) that holds the home pose
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -171,8 +174,6 @@ class LocoEnv(MuJoCo):
             spec_edit.to_position_control(spec, self.pd_gains(spec))
         return spec
 
-    HOME_KEY: ClassVar[str | int] = 0
-
     def load_spec(self) -> mujoco.MjSpec:
         """The unmodified robot model in a scene with a floor named ``floor``."""
         raise NotImplementedError
@@ -185,7 +186,7 @@ class LocoEnv(MuJoCo):
         """PD gains per actuated joint. Default: peak torque at 0.25 rad error (kp = 4 x peak), kd = kp / 25."""
         gains = {}
         for act in spec.actuators:
-            kp = 4.0 * float(np.max(np.abs(spec_edit._torque_range(spec, act))))
+            kp = 4.0 * float(np.max(np.abs(spec_edit.torque_range(spec, act))))
             gains[act.target] = (kp, kp / 25.0)
         return gains
 
@@ -212,8 +213,7 @@ class LocoEnv(MuJoCo):
         qpos_idx, qvel_idx = [], []
         for name in joint_names:
             j = m.joint(name)
-            width_q = {0: 7, 1: 4}.get(int(j.type[0]), 1)
-            width_v = {0: 6, 1: 3}.get(int(j.type[0]), 1)
+            width_q, width_v = spec_edit.qpos_width(j.type[0]), spec_edit.dof_width(j.type[0])
             qpos_idx += [i for i in range(int(j.qposadr[0]), int(j.qposadr[0]) + width_q) if i not in skip]
             qvel_idx += list(range(int(j.dofadr[0]), int(j.dofadr[0]) + width_v))
         self._qpos_idx = np.array(qpos_idx, dtype=np.intp)
@@ -279,8 +279,6 @@ class LocoEnv(MuJoCo):
 
     @staticmethod
     def _default_viewer_params(params: dict[str, Any]) -> dict[str, Any]:
-        import os
-
         if not os.environ.get("DISPLAY"):
             params = {"headless": True, **params}
         return params
@@ -390,8 +388,6 @@ class LocoEnv(MuJoCo):
     def get_obs_idx(self, name: str) -> np.ndarray:
         """Indices of observation entry ``name`` (``q_<joint>``, ``dq_<joint>``, ``q_root`` ...)."""
         if name not in self._obs_idx:
-            import difflib
-
             close = difflib.get_close_matches(name, list(self._obs_idx), n=3)
             hint = f" Did you mean {', '.join(map(repr, close))}?" if close else ""
             raise KeyError(f"no observation entry '{name}' in {type(self).__name__}.{hint} "

@@ -21,8 +21,25 @@ def name_free_joint(spec: mujoco.MjSpec, name: str = ROOT_JOINT) -> None:
     free[0].name = name
 
 
+_QPOS_WIDTH = {mujoco.mjtJoint.mjJNT_FREE: 7, mujoco.mjtJoint.mjJNT_BALL: 4}
+_DOF_WIDTH = {mujoco.mjtJoint.mjJNT_FREE: 6, mujoco.mjtJoint.mjJNT_BALL: 3}
+
+
+def qpos_width(joint_type: int) -> int:
+    """Number of qpos entries of a joint of this type (free 7, ball 4, hinge/slide 1)."""
+    return _QPOS_WIDTH.get(mujoco.mjtJoint(int(joint_type)), 1)
+
+
+def dof_width(joint_type: int) -> int:
+    """Number of qvel entries of a joint of this type (free 6, ball 3, hinge/slide 1)."""
+    return _DOF_WIDTH.get(mujoco.mjtJoint(int(joint_type)), 1)
+
+
 def keyframe_qpos(spec: mujoco.MjSpec, key: str | int = 0) -> dict[str, np.ndarray]:
-    """Map each joint name to its qpos entries in keyframe ``key`` (by name or index)."""
+    """Map each joint name to its qpos entries in keyframe ``key`` (by name or index).
+
+    Relies on ``spec.joints`` listing joints in compiled (depth-first) order, as MuJoCo does.
+    """
     keys = list(spec.keys)
     if isinstance(key, int):
         frame = keys[key]
@@ -31,13 +48,14 @@ def keyframe_qpos(spec: mujoco.MjSpec, key: str | int = 0) -> dict[str, np.ndarr
         if not matches:
             raise ValueError(f"keyframe '{key}' not in model; it has {[k.name for k in keys]}")
         frame = matches[0]
-    model = spec.compile()
     qpos = np.array([frame.qpos[i] for i in range(len(frame.qpos))])
-    out = {}
-    for j in range(model.njnt):
-        adr = model.jnt_qposadr[j]
-        width = {0: 7, 1: 4}.get(int(model.jnt_type[j]), 1)
-        out[model.joint(j).name] = qpos[adr : adr + width].copy()
+    out, adr = {}, 0
+    for joint in spec.joints:
+        width = qpos_width(joint.type)
+        out[joint.name] = qpos[adr : adr + width].copy()
+        adr += width
+    if adr != len(qpos):
+        raise ValueError(f"keyframe '{frame.name}' has {len(qpos)} qpos entries, the joints need {adr}")
     return out
 
 
@@ -135,7 +153,7 @@ def _joint_range(spec: mujoco.MjSpec, joint_name: str) -> np.ndarray:
     return rng
 
 
-def _torque_range(spec: mujoco.MjSpec, act: mujoco.MjsActuator) -> np.ndarray:
+def torque_range(spec: mujoco.MjSpec, act: mujoco.MjsActuator) -> np.ndarray:
     """The actuator's force limit: forcerange for position servos, ctrlrange x gear for motors."""
     if act.gaintype == mujoco.mjtGain.mjGAIN_FIXED and act.biastype == mujoco.mjtBias.mjBIAS_NONE:
         return np.asarray(act.ctrlrange, dtype=float) * float(act.gear[0])
@@ -148,7 +166,7 @@ def _torque_range(spec: mujoco.MjSpec, act: mujoco.MjsActuator) -> np.ndarray:
 def to_torque_control(spec: mujoco.MjSpec) -> None:
     """Turn every actuator into a direct torque motor whose ctrlrange is its force limit (N m)."""
     for act in spec.actuators:
-        torque = _torque_range(spec, act)
+        torque = torque_range(spec, act)
         act.set_to_motor()
         act.gear[0] = 1.0
         act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
@@ -165,7 +183,7 @@ def to_position_control(spec: mujoco.MjSpec, gains: Mapping[str, tuple[float, fl
         if act.target not in gains:
             raise ValueError(f"no PD gains for joint '{act.target}'; given gains for {sorted(gains)}")
         kp, kd = gains[act.target]
-        torque = _torque_range(spec, act)
+        torque = torque_range(spec, act)
         act.set_to_position(kp=float(kp), kv=float(kd))
         act.gear[0] = 1.0
         act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
