@@ -418,7 +418,7 @@ class LocoEnv(MuJoCo):
             renderer = self._rgb_renderer = mujoco.Renderer(self._model, height, width)
             cam = self._rgb_camera = mujoco.MjvCamera()
             cam.type = mujoco.mjtCamera.mjCAMERA_TRACKING
-            cam.trackbodyid = int(self._model.body(self._model.joint(spec_edit.ROOT_JOINT).bodyid[0]).id)
+            cam.trackbodyid = int(self._model.joint(spec_edit.ROOT_JOINT).bodyid[0])
             cam.distance = 2.0 * max(float(self._model.stat.extent), 0.75)
             cam.elevation, cam.azimuth = -15.0, 135.0
         renderer.update_scene(self._data, camera=self._rgb_camera)
