@@ -63,7 +63,7 @@ def measure(name: str, steps: int, repeats: int, seed: int = 0) -> dict:
     env = LocoEnv.make(name, seed=seed)
     rng = np.random.default_rng(seed)
     actions = rng.uniform(-1.0, 1.0, size=(steps, env.info.action_space.shape[0]))
-    ctrls = env._ctrl_center + env._ctrl_half * actions  # what env.step writes to data.ctrl
+    ctrls = env.action_to_ctrl(actions)  # what env.step writes to data.ctrl
     run_env(env, actions[:200])  # warm-up
     env_times, raw_times = [], []
     for _ in range(repeats):

@@ -51,7 +51,7 @@ def home_action(env: LocoEnv) -> np.ndarray:
     m = env.model
     env.reset()
     home = np.array([env.data.joint(m.actuator(i).trnid[0]).qpos[0] for i in range(m.nu)])
-    return (home - env._ctrl_center) / env._ctrl_half
+    return env.ctrl_to_action(home)
 
 
 def errors(traj: np.ndarray, ref: np.ndarray) -> tuple[float, float]:

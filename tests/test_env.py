@@ -170,8 +170,8 @@ def test_pd_control_holds_the_home_pose(name, seconds):
     # the action that targets the home joint angles
     m = env.model
     home = np.array([env.data.joint(m.actuator(i).trnid[0]).qpos[0] for i in range(m.nu)])
-    action = (home - (m.actuator_ctrlrange[:, 0] + m.actuator_ctrlrange[:, 1]) / 2) / (
-        (m.actuator_ctrlrange[:, 1] - m.actuator_ctrlrange[:, 0]) / 2)
+    action = env.ctrl_to_action(home)
+    np.testing.assert_allclose(env.action_to_ctrl(action), home)
     z0 = obs[0]
     for _ in range(int(seconds / env.dt)):  # H1 drifts backwards after ~1.4 s under pure joint PD
         obs, _, absorbing, _ = env.step(action)

@@ -42,6 +42,16 @@ class Task:
     description: str = ""
 
 
+def _sum_is_finite(x: np.ndarray) -> bool:
+    """Cheap finiteness check for the hot path: one reduction instead of an element-wise test.
+
+    A non-finite element always makes the sum non-finite; a finite sum can only overflow to inf for
+    huge finite values, so callers confirm with ``np.isfinite`` before reporting an error.
+    """
+    total = x.sum()
+    return total == total and total not in (math.inf, -math.inf)
+
+
 class PhysicsDivergedWarning(RuntimeWarning):
     """The simulation produced non-finite values; the episode was terminated."""
 
@@ -303,11 +313,10 @@ class LocoEnv(MuJoCo):
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, dict[str, Any]]:
         action = self._check_action(action)
         np.clip(action, -1.0, 1.0, out=action)
-        self._ctrl_view[:] = self._ctrl_center + self._ctrl_half * action
+        self._ctrl_view[:] = self.action_to_ctrl(action)
         mujoco.mj_step(self._model, self._data, self._n_substeps)
         obs = self._build_observation()
-        total = obs.sum()
-        diverged = total != total or total in (math.inf, -math.inf)
+        diverged = not _sum_is_finite(obs)
         if diverged:
             diverged = self._handle_divergence(obs)
             if diverged:
@@ -328,14 +337,21 @@ class LocoEnv(MuJoCo):
         if a.shape != (self._n_act,):
             raise ValueError(f"action must have shape ({self._n_act},) for {type(self).__name__} "
                              f"({self.control} control), got shape {a.shape}")
-        total = a.sum()
-        if total != total or total in (math.inf, -math.inf):
+        if not _sum_is_finite(a):
             bad = np.flatnonzero(~np.isfinite(a))
             if bad.size:
                 names = [self.actuator_names[i] for i in bad]
                 raise ValueError(f"action contains NaN or inf at indices {bad.tolist()} ({', '.join(names)}); "
                                  f"actions must be finite numbers in [-1, 1]")
         return a
+
+    def action_to_ctrl(self, action: np.ndarray) -> np.ndarray:
+        """The MuJoCo ctrl (torque, or joint target in PD mode) that a normalised action commands."""
+        return self._ctrl_center + self._ctrl_half * action
+
+    def ctrl_to_action(self, ctrl: np.ndarray) -> np.ndarray:
+        """The normalised action that commands ``ctrl``; e.g. PD targets of a pose."""
+        return (np.asarray(ctrl, dtype=np.float64) - self._ctrl_center) / self._ctrl_half
 
     def _handle_divergence(self, obs: np.ndarray) -> bool:
         if np.all(np.isfinite(obs)):  # a finite sum overflowing: not a divergence
