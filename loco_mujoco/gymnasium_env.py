@@ -70,6 +70,22 @@ class LocoGymEnv(gym.Env):
     def get_obs_idx(self, name: str) -> np.ndarray:
         return self.unwrapped_loco.get_obs_idx(name)
 
+    # ---- the dataset, as on LocoEnv ---------------------------------------------------------------
+    @property
+    def dataset(self):  # noqa: ANN201 - TrajectoryDataset, imported lazily
+        return self.unwrapped_loco.dataset
+
+    def create_dataset(self) -> dict[str, np.ndarray]:
+        """Expert transitions in this env's observation layout (float32, like its observations)."""
+        data = self.unwrapped_loco.create_dataset()
+        return {k: v.astype(np.float32) if v.dtype == np.float64 else v for k, v in data.items()}
+
+    def play_trajectory(self, *args: Any, **kwargs: Any) -> dict[str, Any]:
+        return self.unwrapped_loco.play_trajectory(*args, **kwargs)
+
+    def play_trajectory_from_velocity(self, *args: Any, **kwargs: Any) -> dict[str, Any]:
+        return self.unwrapped_loco.play_trajectory_from_velocity(*args, **kwargs)
+
 
 def register_gymnasium() -> None:
     """Register the ``LocoMujoco`` id (idempotent)."""

@@ -13,8 +13,9 @@ def _step(env, value=0.1):
 
 def test_target_velocity_reward_matches_its_formula():
     env = lm.LocoEnv.make("UnitreeH1.run")
+    assert env.target_velocity == env.dataset.metadata["mean_forward_speed"] > 2.0  # running, from the dataset
     obs, reward, _, info = _step(env)
-    assert math.isclose(reward, math.exp(-((info["root_vel"][0] - 2.5) ** 2)))
+    assert math.isclose(reward, math.exp(-((info["root_vel"][0] - env.target_velocity) ** 2)))
     env2 = lm.LocoEnv.make("UnitreeH1.walk", reward_params={"target_velocity": 0.0})
     obs2, reward2, _, _ = _step(env2)
     assert math.isclose(reward2, math.exp(-obs2[env2.get_obs_idx("dq_root")[0]] ** 2))
@@ -24,7 +25,7 @@ def test_velocity_vector_reward_tracks_the_goal_vector():
     env = lm.LocoEnv.make("UnitreeA1.hard", seed=5)
     obs, reward, _, info = _step(env)
     goal = env.goal_velocity
-    assert math.isclose(np.linalg.norm(goal), 0.6)
+    assert math.isclose(np.linalg.norm(goal), env.dataset.metadata["mean_speed"])
     assert math.isclose(reward, math.exp(-np.sum((info["root_vel"][:2] - goal) ** 2)))
 
 

@@ -23,6 +23,7 @@ from mushroom_rl.utils.spaces import Box
 from loco_mujoco._compat import MuJoCo
 from loco_mujoco.core import rewards as rw
 from loco_mujoco.core.task_names import DATASET_TYPES, DEFAULT_DATASET_TYPE, parse_task_name, register_environment
+from loco_mujoco.core.trajectory_api import TrajectoryMixin
 from loco_mujoco.models import spec_edit
 
 CONTROL_MODES = ("torque", "pd")
@@ -56,7 +57,7 @@ class PhysicsDivergedWarning(RuntimeWarning):
     """The simulation produced non-finite values; the episode was terminated."""
 
 
-class LocoEnv(MuJoCo):
+class LocoEnv(TrajectoryMixin, MuJoCo):
     """Base class of all locomotion environments. Build one with ``LocoEnv.make("UnitreeH1.walk")``."""
 
     # ---- declared by each embodiment -------------------------------------------------------------
@@ -92,6 +93,10 @@ class LocoEnv(MuJoCo):
         horizon: int = 1000,
         gamma: float = 0.99,
         seed: int | None = None,
+        random_start: bool = False,
+        init_step_no: int | None = None,
+        dataset_variant: str | None = None,
+        dataset_path: str | None = None,
         **viewer_params: Any,
     ):
         """Build the model for ``task`` and compile it once.
@@ -105,6 +110,9 @@ class LocoEnv(MuJoCo):
             reward_type: ``task`` (the task's own), ``target_velocity``, ``velocity_vector``, ``custom``
                 (``reward_params={"callback": f}``) or ``none``.
             timestep, n_substeps: physics step and steps per control step (control runs at 100 Hz).
+            random_start: start each episode from a random dataset state; ``init_step_no``: from that frame.
+            dataset_variant: ``permissive`` or ``noncommercial`` where a task has both (default: the first).
+            dataset_path: a dataset file to use instead (ours, or the original LocoMuJoCo ``.npz`` format).
         """
         task = task if task is not None else next(iter(self.TASKS))
         self._validate_choice("task", task, tuple(self.TASKS))
@@ -127,6 +135,7 @@ class LocoEnv(MuJoCo):
         self.disable_arms = disable_arms
         self.task = self.TASKS[task]
         self._rng = np.random.default_rng(seed)
+        self._init_trajectories(random_start, init_step_no, dataset_variant, dataset_path)
 
         spec = self.build_spec(control=control, disable_arms=disable_arms)
         spec.option.integrator = DEFAULT_INTEGRATOR
@@ -146,7 +155,10 @@ class LocoEnv(MuJoCo):
         self._setup_observation(joint_names)
         self._setup_action()
         self._init_qpos = self.home_qpos(self._model)
-        self._goal = np.array([1.0, 0.0, self.task.target_velocity])
+        self.target_velocity = self.task.target_velocity
+        if reward_type != "none" and "target_velocity" not in (reward_params or {}):
+            self.target_velocity = self._target_velocity_from_dataset()
+        self._goal = np.array([1.0, 0.0, self.target_velocity])
         self._reward_fn = self._make_reward(reward_type, reward_params or {})
         self._diverged_warned = False
         self._cos_max_tilt = math.cos(self.MAX_TILT)
@@ -270,7 +282,7 @@ class LocoEnv(MuJoCo):
             raise ValueError(f"unknown reward_params {sorted(unknown)} for reward_type '{reward_type}'; "
                              f"valid: {sorted(allowed) or 'none'}")
         if reward_type == "target_velocity":
-            return rw.TargetVelocityReward(vel[0], params.get("target_velocity", self.task.target_velocity))
+            return rw.TargetVelocityReward(vel[0], params.get("target_velocity", self.target_velocity))
         if reward_type == "velocity_vector":
             if not self.GOAL_OBSERVATION:
                 raise ValueError(f"reward_type 'velocity_vector' needs a goal in the observation; "
@@ -281,6 +293,17 @@ class LocoEnv(MuJoCo):
                 raise ValueError("reward_type 'custom' needs reward_params={'callback': f(state, action, next_state)}")
             return rw.CustomReward(params["callback"])
         return rw.NoReward()
+
+    def _target_velocity_from_dataset(self) -> float:
+        """The dataset's mean forward speed; the task's nominal speed, with a warning, if no dataset can be had."""
+        from loco_mujoco.datasets.registry import DatasetUnavailableError
+
+        try:
+            return self.dataset_target_velocity()
+        except (DatasetUnavailableError, OSError) as err:  # no recipe, or sources neither local nor downloadable
+            warnings.warn(f"{type(self).__name__}.{self.task_name}: no dataset to take the target speed from "
+                          f"({err}); using the nominal {self.task.target_velocity} m/s", stacklevel=3)
+            return self.task.target_velocity
 
     @staticmethod
     def _validate_choice(what: str, value: Any, valid: tuple[str, ...]) -> None:
@@ -299,13 +322,18 @@ class LocoEnv(MuJoCo):
         self._rng = np.random.default_rng(seed)
 
     def reset(self, obs: np.ndarray | None = None) -> np.ndarray:
-        """Start an episode from the home pose, or from ``obs`` (an observation in this env's layout)."""
+        """Start an episode from ``obs`` (an observation in this env's layout) if given, else from a dataset
+        state (``init_step_no`` or ``random_start``), else from the home pose."""
         m, d = self._model, self._data
         mujoco.mj_resetData(m, d)
         d.qpos[:] = self._init_qpos
         self._reset_goal()
         if obs is not None:
             self._write_observation(obs)
+        else:
+            frame = self._start_frame()
+            if frame is not None:
+                self._set_dataset_state(frame)
         mujoco.mj_forward(m, d)
         self._obs = self._build_observation()
         return self._obs

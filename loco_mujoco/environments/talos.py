@@ -7,6 +7,7 @@ import math
 import mujoco
 
 from loco_mujoco.core.loco_env import LocoEnv, Task
+from loco_mujoco.datasets.retarget import HumanoidRetarget, LegJoints
 from loco_mujoco.models.menagerie import load_menagerie_spec
 
 
@@ -29,3 +30,17 @@ class Talos(LocoEnv):
     def fixed_joints(self, spec: mujoco.MjSpec, disable_arms: bool) -> list[str]:
         prefixes = self._ALWAYS_FIXED_PREFIXES + (("arm_",) if disable_arms else ())
         return [j.name for j in spec.joints if j.name.startswith(prefixes)]
+
+
+Talos.RETARGET = HumanoidRetarget(legs={
+    side[0]: LegJoints(hip_rotation=f"leg_{side}_1_joint", hip_adduction=f"leg_{side}_2_joint",
+                       hip_flexion=f"leg_{side}_3_joint", knee_flexion=f"leg_{side}_4_joint",
+                       ankle_dorsiflexion=f"leg_{side}_5_joint", ankle_roll=f"leg_{side}_6_joint",
+                       foot_body=f"leg_{side}_6_link")
+    for side in ("left", "right")})
+# Joint names of the original LocoMuJoCo Talos model (legs and torso), for its .npz datasets.
+Talos.OLD_FORMAT_JOINTS = {
+    **{f"{old}_{s[0]}": f"leg_{s}_{i}_joint" for s in ("left", "right") for old, i in
+       (("hip_rotation", 1), ("hip_adduction", 2), ("hip_flexion", 3), ("knee_angle", 4), ("ankle_angle", 5))},
+    "back_bkz": "torso_1_joint", "back_bky": "torso_2_joint",
+}

@@ -8,6 +8,7 @@ import mujoco
 import numpy as np
 
 from loco_mujoco.core.loco_env import LocoEnv, Task
+from loco_mujoco.datasets.retarget import QuadrupedRetarget
 from loco_mujoco.models.menagerie import load_menagerie_spec
 
 
@@ -37,9 +38,12 @@ class UnitreeA1(LocoEnv):
 
     def _reset_goal(self) -> None:
         heading = self._rng.uniform(-math.pi, math.pi) if self.task_name == "hard" else 0.0
-        self._goal[:] = (math.cos(heading), math.sin(heading), self.task.target_velocity)
+        self._goal[:] = (math.cos(heading), math.sin(heading), self.target_velocity)
 
     @property
     def goal_velocity(self) -> np.ndarray:
         """The current goal as a world-frame xy velocity (m/s)."""
         return self._goal[:2] * self._goal[2]
+
+
+UnitreeA1.RETARGET = QuadrupedRetarget(feet=("FR_calf", "FL_calf", "RR_calf", "RL_calf"), contact_height=0.01)

@@ -7,6 +7,7 @@ import math
 import mujoco
 
 from loco_mujoco.core.loco_env import LocoEnv, Task
+from loco_mujoco.datasets.retarget import HumanoidRetarget, LegJoints
 from loco_mujoco.models.menagerie import load_menagerie_spec
 
 
@@ -27,3 +28,19 @@ class UnitreeH1(LocoEnv):
 
     def load_spec(self) -> mujoco.MjSpec:
         return load_menagerie_spec("unitree_h1", "scene")
+
+
+UnitreeH1.RETARGET = HumanoidRetarget(legs={
+    side[0]: LegJoints(hip_rotation=f"{side}_hip_yaw", hip_adduction=f"{side}_hip_roll",
+                       hip_flexion=f"{side}_hip_pitch", knee_flexion=f"{side}_knee",
+                       ankle_dorsiflexion=f"{side}_ankle", foot_body=f"{side}_ankle_link")
+    for side in ("left", "right")})
+# Joint names of the original LocoMuJoCo H1 model (same axes as Menagerie's), for its .npz datasets.
+UnitreeH1.OLD_FORMAT_JOINTS = {
+    **{f"{old}_{s[0]}": f"{s}_{new}" for s in ("left", "right") for old, new in
+       (("hip_rotation", "hip_yaw"), ("hip_adduction", "hip_roll"), ("hip_flexion", "hip_pitch"),
+        ("knee_angle", "knee"), ("ankle_angle", "ankle"))},
+    "back_bkz": "torso", "left_elbow": "left_elbow", "right_elbow": "right_elbow",
+    **{f"{s[0]}_arm_{old}": f"{s}_shoulder_{new}" for s in ("left", "right") for old, new in
+       (("shy", "pitch"), ("shx", "roll"), ("shz", "yaw"))},
+}

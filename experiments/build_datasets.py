@@ -1,0 +1,60 @@
+"""Build every task's real dataset into the cache, or list them with provenance and quality figures.
+
+    python experiments/build_datasets.py            # build all (cached ones are loaded)
+    python experiments/build_datasets.py --list     # table: sources, licence, seconds, speed, quality
+    python experiments/build_datasets.py --task UnitreeH1.walk --rebuild
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from loco_mujoco.core.task_names import environment_class, list_tasks, parse_task_name
+from loco_mujoco.datasets.registry import RECIPES, dataset_kind, load_dataset
+
+
+def real_datasets(only: str | None = None) -> list[tuple[type, str, str]]:
+    """(env class, task, variant) of every real dataset, or of one ``Env.task``."""
+    out = []
+    names = [only] if only else sorted({".".join(t.split(".")[:2]) for t in list_tasks()})
+    for name in names:
+        parsed = parse_task_name(name)
+        env_cls = environment_class(parsed.env)
+        try:
+            kind = dataset_kind(env_cls)
+        except Exception:  # noqa: BLE001 - environments without datasets are listed as such
+            continue
+        for variant in RECIPES[kind].get(parsed.task, {}):
+            out.append((env_cls, parsed.task, variant))
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--list", action="store_true", help="print each dataset's provenance and quality")
+    parser.add_argument("--task", help="only this Env.task")
+    parser.add_argument("--rebuild", action="store_true", help="rebuild even if cached")
+    args = parser.parse_args(argv)
+    for env_cls, task, variant in real_datasets(args.task):
+        ds = load_dataset(env_cls, task, variant, rebuild=args.rebuild, progress=not args.list)
+        meta = ds.metadata
+        if not args.list:
+            print(f"{env_cls.__name__}.{task} [{variant}]: {ds.n_trajectories} trajectories, {ds.duration:.1f} s")
+            continue
+        q = meta["quality"]
+        nc = "NON-COMMERCIAL" if meta["noncommercial"] else "commercial use ok"
+        print(f"{env_cls.__name__}.{task} [{variant}]  {meta['seconds']:.1f} s at {meta['frequency']:.0f} Hz, "
+              f"{ds.n_trajectories} trajectories, mean speed {meta['mean_forward_speed']:.2f} m/s")
+        print(f"    licence: {', '.join(meta['licences'])} ({nc})")
+        print(f"    sources: {', '.join(s['path'] for s in meta['sources'])}")
+        print(f"    quality: foot sliding {q['foot_sliding_mps']:.3f} m/s (p95 {q['foot_sliding_p95_mps']:.2f}), "
+              f"penetration max {1000 * q['ground_penetration_max_m']:.1f} mm, "
+              f"stance float {1000 * q['stance_float_mean_m']:.1f} mm, "
+              f"joint-limit clipped {100 * q['joint_limit_clipped_fraction']:.2f}%, "
+              f"flight {100 * q['flight_fraction']:.0f}%")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""Datasets: motion sources, retargeting onto embodiments, task datasets and trajectories."""

@@ -1,0 +1,61 @@
+"""Datasets in the original LocoMuJoCo ``.npz`` layout: loading them onto our robots and exporting ours."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from loco_mujoco.datasets.resample import resample_angles, resample_quat
+from loco_mujoco.datasets.retarget import velocities
+from loco_mujoco.datasets.sources.loco_npz import OLD_ROOT_OFFSET, load_loco_npz
+from loco_mujoco.datasets.trajectory import FORMAT, TrajectoryDataset
+
+if TYPE_CHECKING:
+    from loco_mujoco.core.loco_env import LocoEnv
+
+
+def load_any_dataset(env_cls: type[LocoEnv], path: str | Path, frequency: float = 100.0) -> TrajectoryDataset:
+    """A dataset file of ours, or an original LocoMuJoCo ``.npz`` converted onto ``env_cls``'s full model."""
+    path = Path(path)
+    with np.load(path, allow_pickle=False) as data:
+        ours = "format" in data.files and str(data["format"]) == FORMAT
+    return TrajectoryDataset.load(path) if ours else convert_loco_npz(env_cls, path, frequency)
+
+
+def convert_loco_npz(env_cls: type[LocoEnv], path: str | Path, frequency: float = 100.0) -> TrajectoryDataset:
+    """Map an original-format file's joints onto ours by ``env_cls.OLD_FORMAT_JOINTS`` and resample it."""
+    old_names = getattr(env_cls, "OLD_FORMAT_JOINTS", None)
+    if not old_names:
+        raise ValueError(f"{env_cls.__name__} has no mapping from the original LocoMuJoCo joint names")
+    motion = load_loco_npz(path, root_offset=OLD_ROOT_OFFSET[env_cls.__name__])
+    env = env_cls(disable_arms=False, control="torque", reward_type="none")
+    model = env.model
+    base = env.home_qpos(model)
+    env.stop()
+    splits = np.asarray(motion.meta.get("split_points", [0, motion.n_frames]), dtype=int)
+    if splits[0] != 0 or splits[-1] != motion.n_frames:
+        splits = np.concatenate([[0], splits[(splits > 0) & (splits < motion.n_frames)], [motion.n_frames]])
+    qpos_parts, qvel_parts, lengths = [], [], []
+    for a, b in zip(splits[:-1], splits[1:], strict=False):
+        t_src = motion.time[a:b]
+        t_new = np.arange(t_src[0], t_src[-1] + 1e-9, 1.0 / frequency)
+        q = np.tile(base, (len(t_new), 1))
+        q[:, :3] = resample_angles(t_src, motion.root_pos[a:b], t_new)
+        q[:, 3:7] = resample_quat(t_src, motion.root_quat[a:b], t_new)
+        for old, new in old_names.items():
+            if old in motion.joint_names:
+                adr = model.jnt_qposadr[model.joint(new).id]
+                q[:, adr] = resample_angles(t_src, motion.angle(old)[a:b, None], t_new)[:, 0]
+        qpos_parts.append(q)
+        qvel_parts.append(velocities(model, q, frequency))
+        lengths.append(len(q))
+    metadata = {"env": env_cls.__name__, "task": None, "dataset_type": "real", "variant": "file",
+                "frequency": frequency, "source_file": str(path), "format": "loco-mujoco-npz",
+                "mean_forward_speed": float(np.mean(np.concatenate(qvel_parts)[:, 0])),
+                "mean_speed": float(np.mean(np.linalg.norm(np.concatenate(qvel_parts)[:, :2], axis=1))),
+                "seconds": float(sum(n - 1 for n in lengths) / frequency)}
+    joint_names = tuple(model.joint(j).name for j in range(model.njnt))
+    return TrajectoryDataset(np.concatenate(qpos_parts), np.concatenate(qvel_parts),
+                             np.concatenate([[0], np.cumsum(lengths)]), frequency, joint_names, metadata)

@@ -1,0 +1,289 @@
+"""Retargeting: human gait onto humanoid robots and quadruped motion onto quadrupeds, by joint meaning.
+
+Joint angles are mapped by meaning (see :mod:`human_gait`), clipped to the robot's limits, and the root path
+is rebuilt from the robot's own legs: its height puts the lowest foot on the ground (plus the source's
+flight phases, scaled by leg length), and its horizontal motion is the odometry of the stance feet, so feet
+do not slide while in contact and treadmill trials (no pelvis travel) move forward at the belt speed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+from scipy.ndimage import percentile_filter
+from scipy.spatial.transform import Rotation
+
+from loco_mujoco.datasets.human_gait import SIDES, HumanGait
+from loco_mujoco.datasets.motion import Motion
+
+# A source's root must rise this far (m) above what its legs reach before the frame counts as flight.
+FLIGHT_MARGIN = 0.025
+
+# Rotation axis (pelvis frame) and sign of each anatomical angle, per side: robot angle = angle * (axis . joint axis).
+_ANATOMICAL_AXES = {
+    "hip_flexion": {"l": (0, -1, 0), "r": (0, -1, 0)},
+    "hip_adduction": {"l": (-1, 0, 0), "r": (1, 0, 0)},
+    "hip_rotation": {"l": (0, 0, -1), "r": (0, 0, 1)},
+    "knee_flexion": {"l": (0, 1, 0), "r": (0, 1, 0)},
+    "ankle_dorsiflexion": {"l": (0, -1, 0), "r": (0, -1, 0)},
+}
+
+
+@dataclass(frozen=True)
+class LegJoints:
+    """A humanoid leg: the joint playing each anatomical role, and the body whose geoms form the sole."""
+
+    hip_rotation: str
+    hip_adduction: str
+    hip_flexion: str
+    knee_flexion: str
+    ankle_dorsiflexion: str
+    foot_body: str
+    ankle_roll: str | None = None
+
+
+@dataclass(frozen=True)
+class HumanoidRetarget:
+    """How human gait maps onto a humanoid: its legs, and how close a foot must be to the ground to be in contact."""
+
+    legs: dict[str, LegJoints]
+    contact_height: float = 0.01
+
+
+@dataclass(frozen=True)
+class QuadrupedRetarget:
+    """How a quadruped motion maps onto a quadruped: joint names pass through, feet by body."""
+
+    feet: tuple[str, ...]
+    contact_height: float = 0.02
+
+
+@dataclass
+class RetargetedMotion:
+    """One trajectory on a robot: full-model ``qpos`` (N, nq) and ``qvel`` (N, nv) at ``frequency``."""
+
+    name: str
+    qpos: np.ndarray
+    qvel: np.ndarray
+    frequency: float
+    quality: dict[str, float]
+    source: str
+
+
+class _Feet:
+    """Sole points of each foot body (collision geoms as points with radii) and vectorised foot kinematics."""
+
+    def __init__(self, model: mujoco.MjModel, bodies: tuple[str, ...]):
+        self.model = model
+        self.body_ids = np.array([model.body(b).id for b in bodies])
+        points: list[list[np.ndarray]] = [[] for _ in bodies]
+        radii: list[list[float]] = [[] for _ in bodies]
+        for g in range(model.ngeom):
+            if model.geom_bodyid[g] not in self.body_ids or not (model.geom_contype[g] or model.geom_conaffinity[g]):
+                continue
+            f = int(np.flatnonzero(self.body_ids == model.geom_bodyid[g])[0])
+            pts, rad = _geom_points(model, g)
+            points[f].extend(pts)
+            radii[f].extend([rad] * len(pts))
+        if not all(points):
+            missing = [b for b, p in zip(bodies, points, strict=False) if not p]
+            raise ValueError(f"feet {missing} have no collision geoms to stand on")
+        width = max(len(p) for p in points)
+        # Pad with copies of the first point so every foot has the same number of points.
+        self.points = np.stack([np.array(p + [p[0]] * (width - len(p))) for p in points])
+        self.radii = np.stack([np.array(r + [r[0]] * (width - len(r))) for r in radii])
+
+    def sole_points(self, qpos: np.ndarray) -> np.ndarray:
+        """World positions of the sole points, (N, feet, points, 3), with the radius taken off z."""
+        data = mujoco.MjData(self.model)
+        n = len(qpos)
+        xpos = np.empty((n, len(self.body_ids), 3))
+        xmat = np.empty((n, len(self.body_ids), 3, 3))
+        for t in range(n):
+            data.qpos[:] = qpos[t]
+            mujoco.mj_kinematics(self.model, data)
+            xpos[t] = data.xpos[self.body_ids]
+            xmat[t] = data.xmat[self.body_ids].reshape(-1, 3, 3)
+        pts = xpos[:, :, None, :] + np.einsum("tfij,fkj->tfki", xmat, self.points)
+        pts[..., 2] -= self.radii[None]
+        return pts
+
+
+def _geom_points(model: mujoco.MjModel, g: int) -> tuple[list[np.ndarray], float]:
+    """Points (in the body frame) and a radius whose swept spheres bound a geom from below."""
+    size, kind = model.geom_size[g], model.geom_type[g]
+    rot = Rotation.from_quat(model.geom_quat[g][[1, 2, 3, 0]]).as_matrix()
+    if kind == mujoco.mjtGeom.mjGEOM_SPHERE:
+        local, radius = [np.zeros(3)], size[0]
+    elif kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
+        local, radius = [np.array([0, 0, s * size[1]]) for s in (-1, 1)], size[0]
+    elif kind == mujoco.mjtGeom.mjGEOM_BOX:
+        local = [np.array([a, b, c]) * size for a in (-1, 1) for b in (-1, 1) for c in (-1, 1)]
+        radius = 0.0
+    elif kind == mujoco.mjtGeom.mjGEOM_CYLINDER:
+        ang = np.linspace(0, 2 * np.pi, 16, endpoint=False)
+        local = [np.array([size[0] * np.cos(a), size[0] * np.sin(a), s * size[1]]) for a in ang for s in (-1, 1)]
+        radius = 0.0
+    elif kind == mujoco.mjtGeom.mjGEOM_MESH:
+        mesh = model.geom_dataid[g]
+        start, count = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
+        verts = model.mesh_vert[start:start + count]
+        # Keep the lowest vertices in the body frame at rest: the sole.
+        body_verts = verts @ rot.T + model.geom_pos[g]
+        keep = body_verts[:, 2] <= body_verts[:, 2].min() + 0.02
+        return list(body_verts[keep]), 0.0
+    else:
+        raise ValueError(f"geom {model.geom(g).name or g} of type {kind} cannot be a foot")
+    return [rot @ p + model.geom_pos[g] for p in local], float(radius)
+
+
+def joint_axes(model: mujoco.MjModel) -> dict[str, np.ndarray]:
+    """Each hinge's axis in the root frame with every joint at zero and the root at identity."""
+    data = mujoco.MjData(model)
+    data.qpos[:] = 0
+    data.qpos[3] = 1.0
+    mujoco.mj_kinematics(model, data)
+    return {model.joint(j).name: data.xaxis[j].copy() for j in range(model.njnt)
+            if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE}
+
+
+def _joint_limits(model: mujoco.MjModel, name: str) -> tuple[int, float, float]:
+    j = model.joint(name)
+    lo, hi = (j.range if model.jnt_limited[j.id] else (-np.inf, np.inf))
+    return int(model.jnt_qposadr[j.id]), float(lo), float(hi)
+
+
+def retarget_human(gait: HumanGait, model: mujoco.MjModel, spec: HumanoidRetarget,
+                   base_qpos: np.ndarray) -> RetargetedMotion:
+    """Map a human gait onto a humanoid; joints not in the legs keep ``base_qpos`` (the home pose)."""
+    n = gait.n_frames
+    qpos = np.tile(base_qpos, (n, 1))
+    axes = joint_axes(model)
+    clipped = total = 0
+    for side in SIDES:
+        leg = spec.legs[side]
+        for role, axis_by_side in _ANATOMICAL_AXES.items():
+            joint = getattr(leg, role)
+            alignment = float(np.dot(axes[joint], axis_by_side[side]))
+            if abs(alignment) < 0.9:
+                raise ValueError(f"joint {joint} (axis {axes[joint].round(2)}) does not rotate about the "
+                                 f"{role} axis {axis_by_side[side]}")
+            adr, lo, hi = _joint_limits(model, joint)
+            value = np.sign(alignment) * gait.angles[side][role]
+            clipped += int(np.sum((value < lo) | (value > hi)))
+            total += n
+            qpos[:, adr] = np.clip(value, lo, hi)
+        if leg.ankle_roll is not None:  # keep the sole parallel to the pelvis: undo the hip's roll
+            sign = 1.0 if side == "r" else -1.0
+            alignment = float(np.dot(axes[leg.ankle_roll], (1, 0, 0)))
+            adr, lo, hi = _joint_limits(model, leg.ankle_roll)
+            qpos[:, adr] = np.clip(-np.sign(alignment) * sign * gait.angles[side]["hip_adduction"], lo, hi)
+    rot = Rotation.from_euler("ZX", np.stack([gait.pelvis_yaw, gait.pelvis_roll], axis=1))
+    qpos[:, 3:7] = rot.as_quat()[:, [3, 0, 1, 2]]
+    feet = _Feet(model, tuple(spec.legs[s].foot_body for s in SIDES))
+    robot_leg = _standing_root_height(model, feet, base_qpos)
+    scale = robot_leg / gait.leg_length
+    qpos, quality = _ground_and_odometry(qpos, feet, scale * gait.pelvis_pos[:, 2], gait.frequency,
+                                         spec.contact_height)
+    quality["joint_limit_clipped_fraction"] = clipped / max(total, 1)
+    quality["leg_length_scale"] = scale
+    qvel = velocities(model, qpos, gait.frequency)
+    return RetargetedMotion(gait.name, qpos, qvel, gait.frequency, quality, gait.source)
+
+
+def retarget_quadruped(motion: Motion, model: mujoco.MjModel, spec: QuadrupedRetarget, base_qpos: np.ndarray,
+                       frequency: float = 100.0) -> RetargetedMotion:
+    """Put a quadruped motion whose joint names are the robot's onto the robot, re-grounded, at ``frequency``."""
+    from loco_mujoco.datasets.resample import resample_angles, resample_quat
+
+    time = np.arange(0.0, motion.duration + 1e-9, 1.0 / frequency) + motion.time[0]
+    n = len(time)
+    qpos = np.tile(base_qpos, (n, 1))
+    angles = resample_angles(motion.time, motion.joint_angles, time)
+    clipped = 0
+    for i, name in enumerate(motion.joint_names):
+        adr, lo, hi = _joint_limits(model, name)
+        clipped += int(np.sum((angles[:, i] < lo) | (angles[:, i] > hi)))
+        qpos[:, adr] = np.clip(angles[:, i], lo, hi)
+    qpos[:, 3:7] = resample_quat(motion.time, motion.root_quat, time)
+    root_z = resample_angles(motion.time, motion.root_pos[:, 2:3], time)[:, 0]
+    feet = _Feet(model, spec.feet)
+    qpos, quality = _ground_and_odometry(qpos, feet, root_z, frequency, spec.contact_height)
+    quality["joint_limit_clipped_fraction"] = clipped / max(n * len(motion.joint_names), 1)
+    quality["leg_length_scale"] = 1.0
+    qvel = velocities(model, qpos, frequency)
+    return RetargetedMotion(motion.name, qpos, qvel, frequency, quality, motion.source)
+
+
+def _standing_root_height(model: mujoco.MjModel, feet: _Feet, base_qpos: np.ndarray) -> float:
+    """Root height with every leg joint at zero (legs straight) and the lowest sole point on the ground."""
+    q = base_qpos.copy()
+    q[7:] = 0.0
+    q[:3] = 0.0
+    q[3:7] = (1, 0, 0, 0)
+    return float(-feet.sole_points(q[None])[..., 2].min())
+
+
+def _ground_and_odometry(qpos: np.ndarray, feet: _Feet, source_root_z: np.ndarray, frequency: float,
+                         contact_height: float) -> tuple[np.ndarray, dict[str, float]]:
+    """Set the root position from the legs: lowest foot on the ground, flight from the source, stance odometry."""
+    dt = 1.0 / frequency
+    qpos = qpos.copy()
+    qpos[:, :3] = 0.0
+    rel = feet.sole_points(qpos)  # root at the origin: positions relative to the root, world-oriented
+    foot_low = rel[..., 2].min(axis=2)  # (N, feet)
+    z_kin = -foot_low.min(axis=1)
+    # Flight: the source root rises above what its legs reach. Measure against a 1 s lower envelope.
+    excess = source_root_z - z_kin
+    window = max(3, int(round(frequency)))
+    envelope = percentile_filter(excess, 10, size=window, mode="nearest")
+    lift = np.maximum(0.0, excess - envelope - FLIGHT_MARGIN)
+    root_z = z_kin + lift
+    ground = root_z[:, None] + foot_low  # each foot's height above the ground
+    contact = ground < contact_height
+    lowest = rel[..., 2].argmin(axis=2)  # (N, feet): the lowest sole point is where the foot touches
+    vel_rel = np.gradient(rel[..., :2], dt, axis=0)
+    idx = np.arange(len(qpos))[:, None]
+    contact_vel = vel_rel[idx, np.arange(rel.shape[1])[None], lowest]  # (N, feet, 2)
+    # Odometry trusts the feet nearest the ground most: a foot just touching down or lifting off still moves.
+    weights = contact * np.exp(-(ground - ground.min(axis=1, keepdims=True)) / 0.003)
+    has_contact = weights.sum(axis=1) > 0
+    root_v = np.full((len(qpos), 2), np.nan)
+    root_v[has_contact] = -(contact_vel[has_contact] * weights[has_contact, :, None]).sum(axis=1) / \
+        weights[has_contact].sum(axis=1, keepdims=True)
+    if not has_contact.any():
+        raise ValueError("no foot ever touches the ground; cannot place the root")
+    frames = np.arange(len(qpos))
+    for k in range(2):  # flight: constant-velocity interpolation between stance phases
+        root_v[~has_contact, k] = np.interp(frames[~has_contact], frames[has_contact], root_v[has_contact, k])
+    root_xy = np.concatenate([[0.0, 0.0]], axis=0)[None] + np.concatenate(
+        [np.zeros((1, 2)), np.cumsum(0.5 * (root_v[1:] + root_v[:-1]) * dt, axis=0)])
+    qpos[:, :2] = root_xy
+    qpos[:, 2] = root_z
+    world_vel = contact_vel + root_v[:, None, :]
+    sliding = np.linalg.norm(world_vel, axis=2)[contact]
+    heading = Rotation.from_quat(qpos[:, [4, 5, 6, 3]]).apply([1.0, 0.0, 0.0])[:, :2]
+    heading /= np.linalg.norm(heading, axis=1, keepdims=True)
+    quality = {
+        "foot_sliding_mps": float(sliding.mean()) if sliding.size else 0.0,
+        "foot_sliding_p95_mps": float(np.quantile(sliding, 0.95)) if sliding.size else 0.0,
+        "ground_penetration_max_m": float(max(0.0, -ground.min())),
+        "stance_float_mean_m": float(ground.min(axis=1)[has_contact].mean()),
+        "flight_fraction": float(1.0 - has_contact.mean()),
+        "mean_forward_speed_mps": float(np.mean(np.sum(root_v * heading, axis=1))),
+        "mean_speed_mps": float(np.mean(np.linalg.norm(root_v, axis=1))),
+    }
+    return qpos, quality
+
+
+def velocities(model: mujoco.MjModel, qpos: np.ndarray, frequency: float) -> np.ndarray:
+    """Joint velocities by central differences on the configuration manifold (one-sided at the ends)."""
+    n = len(qpos)
+    qvel = np.empty((n, model.nv))
+    dt = 1.0 / frequency
+    for t in range(n):
+        a, b = max(t - 1, 0), min(t + 1, n - 1)
+        mujoco.mj_differentiatePos(model, qvel[t], (b - a) * dt, qpos[a], qpos[b])
+    return qvel
