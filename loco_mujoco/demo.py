@@ -1,7 +1,7 @@
-"""``make demo``: roll out a random policy on a task and report what happened.
+"""``make demo``: replay a task's real dataset (UnitreeH1 walking by default) and report on it.
 
-Until the baselines exist this is the main job: it shows the environment working end to end and,
-when offscreen rendering is available, writes a video of the first episode.
+Prints the dataset's provenance and quality figures and the replay statistics and, when offscreen
+rendering is available, writes an mp4 of the start of the first trajectory.
 """
 
 from __future__ import annotations
@@ -32,48 +32,37 @@ def write_video(frames: list[np.ndarray], path: Path, fps: int) -> None:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--env", default="UnitreeH1.walk", help="task name, e.g. Talos.walk")
-    parser.add_argument("--episodes", type=int, default=5)
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--video", default="out/demo.mp4", help="mp4 of the first episode ('' to skip)")
+    parser.add_argument("--seconds", type=float, default=3.0, help="seconds of the first trajectory in the video")
+    parser.add_argument("--video", default="out/demo.mp4", help="mp4 of the replay ('' to skip)")
     args = parser.parse_args(argv)
 
-    env = LocoEnv.make(args.env, seed=args.seed)
-    rng = np.random.default_rng(args.seed)
-    n_act = env.info.action_space.shape[0]
-    print(f"{args.env}: observation {env.info.observation_space.shape}, action {n_act} ({env.control} control), "
-          f"control {1 / env.dt:.0f} Hz, physics {env.model.opt.timestep * 1e3:.1f} ms x {env._n_substeps}")
-    frames: list[np.ndarray] = []
-    video_error = None
-    returns, lengths, falls, steps, sim_time = [], [], 0, 0, 0.0
-    for episode in range(args.episodes):
-        env.reset()
-        ret, length = 0.0, 0
-        for _ in range(env.info.horizon):
-            action = rng.uniform(-1.0, 1.0, n_act)
-            t0 = time.perf_counter()
-            _, reward, absorbing, _ = env.step(action)
-            sim_time += time.perf_counter() - t0
-            ret += reward
-            steps += 1
-            length += 1
-            if episode == 0 and args.video and video_error is None and len(frames) < MAX_FRAMES:
-                try:
-                    frames.append(env.render_rgb(480, 360))
-                except Exception as err:  # no OpenGL backend: report it, keep the rollout going
-                    video_error = err
-            if absorbing:
-                falls += 1
-                break
-        returns.append(ret)
-        lengths.append(length)
-    print(f"random policy, {args.episodes} episodes: mean return {np.mean(returns):.2f} "
-          f"(task reward, max {env.info.horizon}), mean length {np.mean(lengths):.0f} steps, "
-          f"{falls} falls, env.step at {steps / sim_time:.0f} steps/s")
-    if frames:
-        write_video(frames, Path(args.video), int(round(1 / env.dt)))
-        print(f"video of episode 1 ({len(frames)} frames) written to {args.video}")
-    elif args.video:
-        print(f"no video: offscreen rendering unavailable ({video_error})")
+    env = LocoEnv.make(args.env)
+    ds = env.dataset
+    meta = ds.metadata
+    print(f"{args.env}: {ds.n_trajectories} trajectories, {ds.duration:.1f} s at {ds.frequency:.0f} Hz, "
+          f"mean forward speed {meta['mean_forward_speed']:.2f} m/s (the task's target speed)")
+    print(f"  sources: {', '.join(s['path'] for s in meta.get('sources', []))}")
+    print(f"  licences: {', '.join(meta.get('licences', []))}"
+          f"{' (NON-COMMERCIAL)' if meta.get('noncommercial') else ''}")
+    q = meta.get("quality", {})
+    if q:
+        print(f"  quality: foot sliding {q['foot_sliding_mps']:.3f} m/s, penetration "
+              f"{1000 * q['ground_penetration_max_m']:.1f} mm, joint limits clipped "
+              f"{100 * q['joint_limit_clipped_fraction']:.2f}%")
+    t0 = time.perf_counter()
+    replay = env.play_trajectory()
+    drift = env.play_trajectory_from_velocity()
+    print(f"  kinematic replay of all {replay['frames']} frames: {100 * replay['fallen_fraction']:.2f}% would count "
+          f"as fallen; velocity integration drifts at most {100 * drift['max_root_drift_per_second']:.2f} cm/s "
+          f"({time.perf_counter() - t0:.2f} s)")
+    if args.video:
+        steps = min(int(args.seconds * ds.frequency), MAX_FRAMES)
+        try:
+            video = env.play_trajectory(n_episodes=1, n_steps_per_episode=steps, record=True,
+                                        video_path=args.video, width=480, height=360)
+            print(f"  video of the first {steps} frames written to {video['video']}")
+        except Exception as err:  # no OpenGL backend: the statistics above are the demo
+            print(f"  no video: offscreen rendering unavailable ({err})")
     env.stop()
 
 

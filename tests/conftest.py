@@ -1,6 +1,9 @@
 import os
+import tempfile  # noqa: E402
 
 os.environ.setdefault("MUJOCO_GL", "egl")
+# Datasets are built into a fresh cache per test session: tests never read a user's cache or a stale build.
+os.environ["LOCO_MUJOCO_CACHE"] = tempfile.mkdtemp(prefix="loco_mujoco_test_cache_")
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402

@@ -70,7 +70,8 @@ def test_a1_hard_draws_the_goal_heading_from_the_seed(make_env):
         headings.append(math.atan2(obs[goal[1]], obs[goal[0]]))
     assert headings[0] == headings[1] != headings[2]
     simple = make_env("UnitreeA1.simple")
-    np.testing.assert_array_equal(simple.reset()[simple.get_obs_idx("goal_velocity")], [1.0, 0.0, simple.target_velocity])
+    goal = simple.reset()[simple.get_obs_idx("goal_velocity")]
+    np.testing.assert_array_equal(goal, [1.0, 0.0, simple.target_velocity])
 
 
 @pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])

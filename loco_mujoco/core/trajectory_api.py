@@ -27,6 +27,7 @@ class TrajectoryMixin:
         self.dataset_path = Path(dataset_path) if dataset_path is not None else None
         self._dataset: TrajectoryDataset | None = None
         self._dataset_cols: tuple[np.ndarray, np.ndarray] | None = None
+        self._goals_cache: np.ndarray | None = None
 
     # ---- the dataset ------------------------------------------------------------------------------
     @property
@@ -74,21 +75,27 @@ class TrajectoryMixin:
 
     def dataset_observations(self, frames: np.ndarray | slice | None = None) -> np.ndarray:
         """Observations of dataset frames in this env's observation layout (vectorised)."""
+        frames = slice(None) if frames is None else frames
         qpos, qvel = self.dataset_states(frames)
         parts = [qpos[:, self._qpos_idx], qvel[:, self._qvel_idx]]
         if self.GOAL_OBSERVATION:
-            parts.append(self._dataset_goals(qvel))
+            parts.append(self._dataset_goals()[frames])
         return np.concatenate(parts, axis=1)
 
-    def _dataset_goals(self, qvel: np.ndarray) -> np.ndarray:
-        """Goal (cos, sin, speed) of each dataset frame from its root velocity averaged over 0.5 s."""
-        width = max(1, int(0.5 * self.dataset.frequency))
-        kernel = np.ones(width) / width
-        vx = np.convolve(qvel[:, 0], kernel, mode="same")
-        vy = np.convolve(qvel[:, 1], kernel, mode="same")
-        speed = np.hypot(vx, vy)
-        heading = np.arctan2(vy, vx)
-        return np.stack([np.cos(heading), np.sin(heading), speed], axis=1)
+    def _dataset_goals(self) -> np.ndarray:
+        """Goal (cos, sin, speed) of every dataset frame from its root velocity averaged over 0.5 s."""
+        if getattr(self, "_goals_cache", None) is None:
+            from scipy.ndimage import uniform_filter1d
+
+            ds = self.dataset
+            width = max(1, int(0.5 * ds.frequency))
+            vel = np.empty((ds.n_frames, 2))
+            for i in range(ds.n_trajectories):  # average within each trajectory, never across two
+                sl = ds.trajectory_slice(i)
+                vel[sl] = uniform_filter1d(ds.qvel[sl, :2], width, axis=0, mode="nearest")
+            heading = np.arctan2(vel[:, 1], vel[:, 0])
+            self._goals_cache = np.stack([np.cos(heading), np.sin(heading), np.hypot(vel[:, 0], vel[:, 1])], axis=1)
+        return self._goals_cache
 
     def create_dataset(self) -> dict[str, np.ndarray]:
         """Transitions of the dataset: ``states, next_states, absorbing, last`` (and ``actions`` if it has them)."""
@@ -120,7 +127,7 @@ class TrajectoryMixin:
         self._data.qpos[:] = qpos[0]
         self._data.qvel[:] = qvel[0]
         if self.GOAL_OBSERVATION:
-            self._goal[:] = self.dataset_observations(np.array([frame]))[0, -3:]
+            self._goal[:] = self._dataset_goals()[frame]
 
     # ---- replay -----------------------------------------------------------------------------------
     def _episode_slices(self, n_episodes: int | None, n_steps_per_episode: int | None) -> list[slice]:
@@ -184,7 +191,7 @@ class TrajectoryMixin:
             qpos, qvel = self.dataset_states(sl)
             q = qpos[0].copy()
             for t in range(len(qpos) - 1):
-                mujoco.mj_integratePos(m, q, 0.5 * (qvel[t] + qvel[t + 1]), dt)
+                mujoco.mj_integratePos(m, q, qvel[t], dt)  # explicit Euler: no telescoping back to qpos
             duration = (len(qpos) - 1) * dt
             drifts.append(float(np.linalg.norm(q[:3] - qpos[-1, :3]) / duration))
             joint_errors.append(float(np.sqrt(np.mean((q[7:] - qpos[-1, 7:]) ** 2))))
