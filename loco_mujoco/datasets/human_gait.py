@@ -73,14 +73,19 @@ def _gait_from_opensim(motion: Motion) -> HumanGait:
     for side in SIDES:
         angles[side] = {
             "hip_flexion": motion.angle(f"hip_flexion_{side}"),
-            "hip_adduction": motion.angle(f"hip_adduction_{side}"),
-            "hip_rotation": motion.angle(f"hip_rotation_{side}"),
+            # About their clip medians, as for keypoint sources: no anatomical offsets on straight robot legs.
+            "hip_adduction": _centered(motion.angle(f"hip_adduction_{side}")),
+            "hip_rotation": _centered(motion.angle(f"hip_rotation_{side}")),
             "knee_flexion": knee_sign * motion.angle(f"knee_angle_{side}"),
             "ankle_dorsiflexion": motion.angle(f"ankle_angle_{side}"),
         }
     pelvis = motion.meta["pelvis"]
     return HumanGait(motion.name, motion.frequency, angles, motion.root_pos.copy(),
                      np.unwrap(pelvis["pelvis_rotation"]), pelvis["pelvis_list"], OPENSIM_LEG_LENGTH, motion.source)
+
+
+def _centered(x: np.ndarray) -> np.ndarray:
+    return x - np.median(x)
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
