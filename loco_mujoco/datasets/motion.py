@@ -22,6 +22,15 @@ class MotionFormatError(ValueError):
 Y_UP_TO_Z_UP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
 
 
+def is_float(token: str) -> bool:
+    """Whether a text token parses as a number (for naming the bad token in parse errors)."""
+    try:
+        float(token)
+        return True
+    except ValueError:
+        return False
+
+
 @dataclass
 class Motion:
     """A motion clip in metres, radians and the Z-up world used by MuJoCo.

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from loco_mujoco.datasets.motion import Y_UP_TO_Z_UP, Motion, MotionFormatError
+from loco_mujoco.datasets.motion import Y_UP_TO_Z_UP, Motion, MotionFormatError, is_float
 
 N_KEYPOINTS = 27
 DOG_KEYPOINTS = {0: "pelvis", 3: "neck", 6: "left_shoulder", 10: "left_front_toe", 11: "right_shoulder",
@@ -28,14 +28,6 @@ A1_FRAME_SIZE = 61
 
 def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
-
-
-def _is_float(token: str) -> bool:
-    try:
-        float(token)
-        return True
-    except ValueError:
-        return False
 
 
 def _clip_info(path: Path) -> dict | None:
@@ -86,7 +78,7 @@ def load_dog_keypoints(path: str | Path, frequency: float = 60.0) -> Motion:
         try:
             rows.append([float(t) for t in tokens])
         except ValueError:
-            bad = next(t for t in tokens if not _is_float(t))
+            bad = next(t for t in tokens if not is_float(t))
             raise MotionFormatError(path, f"non-numeric value {bad!r} in row {k}") from None
     if len(rows) < 2:
         raise MotionFormatError(path, f"too few frames: {len(rows)} (need at least 2)")

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from loco_mujoco.datasets.motion import Y_UP_TO_Z_UP, Motion, MotionFormatError
+from loco_mujoco.datasets.motion import Y_UP_TO_Z_UP, Motion, MotionFormatError, is_float
 
 PELVIS = ("pelvis_tx", "pelvis_ty", "pelvis_tz", "pelvis_tilt", "pelvis_list", "pelvis_rotation")
 _TRANSLATION = re.compile(r"(_t[xyz]$)|translation")
@@ -58,7 +58,7 @@ def _parse_rows(path: Path, lines: list[str], first_line: int, names: list[str])
         try:
             rows.append([float(t) for t in tokens])
         except ValueError:
-            bad = next(i for i, t in enumerate(tokens) if not _is_float(t))
+            bad = next(i for i, t in enumerate(tokens) if not is_float(t))
             raise MotionFormatError(path, f"non-numeric value {tokens[bad]!r} in data row {k}, "
                                     f"column {names[bad]!r}") from None
     data = np.array(rows, dtype=float).reshape(len(rows), len(names))
@@ -68,14 +68,6 @@ def _parse_rows(path: Path, lines: list[str], first_line: int, names: list[str])
     if len(data) < 2:
         raise MotionFormatError(path, f"too few frames: {len(data)} (need at least 2)")
     return data
-
-
-def _is_float(token: str) -> bool:
-    try:
-        float(token)
-        return True
-    except ValueError:
-        return False
 
 
 def _in_degrees(path: Path, header: list[str]) -> bool:
@@ -217,7 +209,7 @@ def load_trc(path: str | Path) -> Motion:
         try:
             rows.append([float(c) for c in cells])
         except ValueError:
-            bad = next(c for c in cells if not _is_float(c))
+            bad = next(c for c in cells if not is_float(c))
             raise MotionFormatError(path, f"non-numeric value {bad!r} in data row {k}") from None
     data = np.array(rows, dtype=float).reshape(len(rows), n_cols)
     if not np.all(np.isfinite(data)):
