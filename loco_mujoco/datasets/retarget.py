@@ -17,6 +17,7 @@ from scipy.spatial.transform import Rotation
 
 from loco_mujoco.datasets.human_gait import SIDES, HumanGait
 from loco_mujoco.datasets.motion import Motion
+from loco_mujoco.datasets.resample import resample_angles, resample_quat
 
 # A source's root must rise this far (m) above what its legs reach before the frame counts as flight.
 FLIGHT_MARGIN = 0.025
@@ -196,8 +197,6 @@ def retarget_human(gait: HumanGait, model: mujoco.MjModel, spec: HumanoidRetarge
 def retarget_quadruped(motion: Motion, model: mujoco.MjModel, spec: QuadrupedRetarget, base_qpos: np.ndarray,
                        frequency: float = 100.0) -> RetargetedMotion:
     """Put a quadruped motion whose joint names are the robot's onto the robot, re-grounded, at ``frequency``."""
-    from loco_mujoco.datasets.resample import resample_angles, resample_quat
-
     time = np.arange(0.0, motion.duration + 1e-9, 1.0 / frequency) + motion.time[0]
     n = len(time)
     qpos = np.tile(base_qpos, (n, 1))
@@ -258,8 +257,7 @@ def _ground_and_odometry(qpos: np.ndarray, feet: _Feet, source_root_z: np.ndarra
     frames = np.arange(len(qpos))
     for k in range(2):  # flight: constant-velocity interpolation between stance phases
         root_v[~has_contact, k] = np.interp(frames[~has_contact], frames[has_contact], root_v[has_contact, k])
-    root_xy = np.concatenate([[0.0, 0.0]], axis=0)[None] + np.concatenate(
-        [np.zeros((1, 2)), np.cumsum(0.5 * (root_v[1:] + root_v[:-1]) * dt, axis=0)])
+    root_xy = np.concatenate([np.zeros((1, 2)), np.cumsum(0.5 * (root_v[1:] + root_v[:-1]) * dt, axis=0)])
     qpos[:, :2] = root_xy
     qpos[:, 2] = root_z
     world_vel = contact_vel + root_v[:, None, :]
