@@ -11,13 +11,15 @@ export MENAGERIE_ROOT ?= $(shell test -d ../shared/menagerie && cd ../shared/men
 install: $(STAMP)
 
 # Order matters: CPU torch first (any other torch spec pulls CUDA wheels), then our package and its
-# extras, then mushroom-rl without its pins (torch 2.5.1, numpy 1.24) so nothing gets downgraded.
+# extras, then mushroom-rl and myo-sim without their pins (torch 2.5.1, numpy 1.24) so nothing gets downgraded.
 $(STAMP): pyproject.toml
 	test -d $(VENV) || $(PYTHON) -m venv $(VENV)
 	$(PIP) install -q --upgrade pip
 	$(PIP) install -q torch==2.13.0
 	$(PIP) install -q -e ".[dev]"
 	$(PIP) install -q --no-deps mushroom-rl==1.10.2
+	# myo-sim pins mujoco<4 but its MJCF loads on mujoco 4; we only read its model files.
+	$(PIP) install -q --no-deps myo-sim==0.2.4
 	$(PY) -c "import torch, numpy; assert not torch.version.cuda, 'CUDA torch installed'; \
 	  assert int(numpy.__version__.split('.')[0]) >= 2, 'numpy was downgraded'"
 	touch $(STAMP)

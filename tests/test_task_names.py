@@ -5,7 +5,8 @@ import loco_mujoco as lm
 from loco_mujoco.core.task_names import parse_task_name
 
 EXPECTED = ["UnitreeH1.walk", "UnitreeH1.run", "UnitreeH1.carry", "Talos.walk", "Talos.carry",
-            "UnitreeA1.simple", "UnitreeA1.hard"]
+            "UnitreeA1.simple", "UnitreeA1.hard", "Atlas.walk", "Atlas.carry", "HumanoidTorque.walk",
+            "HumanoidTorque.run"]
 
 
 def test_list_tasks_has_every_task_and_dataset_type():

@@ -74,20 +74,32 @@ class RetargetedMotion:
 
 
 class _Feet:
-    """Sole points of each foot body (collision geoms as points with radii) and vectorised foot kinematics."""
+    """Sole points of each foot (collision geoms of the foot body and its descendants, e.g. toes, as points with
+    radii) and vectorised foot kinematics."""
 
     def __init__(self, model: mujoco.MjModel, bodies: tuple[str, ...]):
         self.model = model
-        self.body_ids = np.array([model.body(b).id for b in bodies])
+        foot_ids = [model.body(b).id for b in bodies]
+        self.body_ids = np.array(foot_ids)
+        owner = {}  # body id -> index of the foot whose subtree holds it
+        for b in range(model.nbody):
+            a = b
+            while a > 0 and a not in foot_ids:
+                a = int(model.body_parentid[a])
+            if a in foot_ids:
+                owner[b] = foot_ids.index(a)
         points: list[list[np.ndarray]] = [[] for _ in bodies]
         radii: list[list[float]] = [[] for _ in bodies]
+        point_bodies: list[list[int]] = [[] for _ in bodies]
         for g in range(model.ngeom):
-            if model.geom_bodyid[g] not in self.body_ids or not (model.geom_contype[g] or model.geom_conaffinity[g]):
+            b = int(model.geom_bodyid[g])
+            if b not in owner or not (model.geom_contype[g] or model.geom_conaffinity[g]):
                 continue
-            f = int(np.flatnonzero(self.body_ids == model.geom_bodyid[g])[0])
+            f = owner[b]
             pts, rad = _geom_points(model, g)
             points[f].extend(pts)
             radii[f].extend([rad] * len(pts))
+            point_bodies[f].extend([b] * len(pts))
         if not all(points):
             missing = [b for b, p in zip(bodies, points, strict=False) if not p]
             raise ValueError(f"feet {missing} have no collision geoms to stand on")
@@ -95,19 +107,21 @@ class _Feet:
         # Pad with copies of the first point so every foot has the same number of points.
         self.points = np.stack([np.array(p + [p[0]] * (width - len(p))) for p in points])
         self.radii = np.stack([np.array(r + [r[0]] * (width - len(r))) for r in radii])
+        self.point_bodies = np.stack([np.array(pb + [pb[0]] * (width - len(pb))) for pb in point_bodies])
 
     def sole_points(self, qpos: np.ndarray) -> np.ndarray:
         """World positions of the sole points, (N, feet, points, 3), with the radius taken off z."""
         data = mujoco.MjData(self.model)
         n = len(qpos)
-        xpos = np.empty((n, len(self.body_ids), 3))
-        xmat = np.empty((n, len(self.body_ids), 3, 3))
+        xpos = np.empty((n, self.model.nbody, 3))
+        xmat = np.empty((n, self.model.nbody, 3, 3))
         for t in range(n):
             data.qpos[:] = qpos[t]
             mujoco.mj_kinematics(self.model, data)
-            xpos[t] = data.xpos[self.body_ids]
-            xmat[t] = data.xmat[self.body_ids].reshape(-1, 3, 3)
-        pts = xpos[:, :, None, :] + np.einsum("tfij,fkj->tfki", xmat, self.points)
+            xpos[t] = data.xpos
+            xmat[t] = data.xmat.reshape(-1, 3, 3)
+        pb = self.point_bodies
+        pts = xpos[:, pb] + np.einsum("tfkij,fkj->tfki", xmat[:, pb], self.points)
         pts[..., 2] -= self.radii[None]
         return pts
 
