@@ -156,9 +156,11 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         self._setup_action()
         self._init_qpos = self.home_qpos(self._model)
         self.target_velocity = self.task.target_velocity
+        self._target_from_dataset = False
         if reward_type != "none" and "target_velocity" not in (reward_params or {}):
             self.target_velocity = self._target_velocity_from_dataset()
-        self._goal = np.array([1.0, 0.0, self.target_velocity])
+        self._goal[:] = (1.0, 0.0, self.target_velocity)
+        self._root_height_range = tuple(self.ROOT_HEIGHT_RANGE)
         self._reward_fn = self._make_reward(reward_type, reward_params or {})
         self._diverged_warned = False
         self._cos_max_tilt = math.cos(self.MAX_TILT)
@@ -243,9 +245,13 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         self._n_qpos_obs = len(qpos_idx)
         n_joint_obs = len(qpos_idx) + len(qvel_idx)
         self._qpos_view, self._qvel_view = self._data.qpos, self._data.qvel  # fixed buffers: cache views
-        self._obs_buffer_len = n_joint_obs + (3 if self.GOAL_OBSERVATION else 0)
-        if self.GOAL_OBSERVATION:
-            self.obs_helper.add_obs("goal_velocity", 3)
+        extras = self.extra_observations()
+        for name, dim in extras:
+            self.obs_helper.add_obs(name, dim)
+        self._n_extra = sum(dim for _, dim in extras)
+        self._extra = np.zeros(self._n_extra)  # goal, body-size code ...: written at reset, copied per step
+        self._goal = self._extra[:3] if self.GOAL_OBSERVATION else np.zeros(3)
+        self._obs_buffer_len = n_joint_obs + self._n_extra
 
         self._obs_idx = {k: np.asarray(v, dtype=np.intp) for k, v in self.obs_helper.obs_idx_map.items()}
         low = np.full(self._obs_buffer_len, -np.inf)
@@ -259,6 +265,10 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         root_q = self._obs_idx[f"q_{spec_edit.ROOT_JOINT}"]
         self._root_z_i, self._qx_i, self._qy_i = int(root_q[0]), int(root_q[2]), int(root_q[3])
         self._vel_root_idx = self._obs_idx[f"dq_{spec_edit.ROOT_JOINT}"]
+
+    def extra_observations(self) -> list[tuple[str, int]]:
+        """Named observation entries after the joint states, constant within an episode (e.g. the goal)."""
+        return [("goal_velocity", 3)] if self.GOAL_OBSERVATION else []
 
     def _setup_action(self) -> None:
         """Actions in [-1, 1] map linearly onto each actuator's ctrlrange (torque or joint target)."""
@@ -299,7 +309,9 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         from loco_mujoco.datasets.registry import DatasetUnavailableError
 
         try:
-            return self.dataset_target_velocity()
+            speed = self.dataset_target_velocity()
+            self._target_from_dataset = True
+            return speed
         except (DatasetUnavailableError, OSError) as err:  # no recipe, or sources neither local nor downloadable
             warnings.warn(f"{type(self).__name__}.{self.task_name}: no dataset to take the target speed from "
                           f"({err}); using the nominal {self.task.target_velocity} m/s", stacklevel=3)
@@ -325,15 +337,15 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         """Start an episode from ``obs`` (an observation in this env's layout) if given, else from a dataset
         state (``init_step_no`` or ``random_start``), else from the home pose."""
         m, d = self._model, self._data
+        frame = None if obs is not None else self._start_frame()
+        self._prepare_episode(frame)
         mujoco.mj_resetData(m, d)
         d.qpos[:] = self._init_qpos
         self._reset_goal()
         if obs is not None:
             self._write_observation(obs)
-        else:
-            frame = self._start_frame()
-            if frame is not None:
-                self._set_dataset_state(frame)
+        elif frame is not None:
+            self._set_dataset_state(frame)
         mujoco.mj_forward(m, d)
         self._obs = self._build_observation()
         return self._obs
@@ -398,8 +410,8 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         obs[:n] = self._qpos_view[self._qpos_idx]
         m = n + len(self._qvel_idx)
         obs[n:m] = self._qvel_view[self._qvel_idx]
-        if self.GOAL_OBSERVATION:
-            obs[m:] = self._goal
+        if self._n_extra:
+            obs[m:] = self._extra
         return obs
 
     def _write_observation(self, obs: np.ndarray) -> None:
@@ -411,8 +423,15 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         n = self._n_qpos_obs
         self._data.qpos[self._qpos_idx] = obs[:n]
         self._data.qvel[self._qvel_idx] = obs[n : n + len(self._qvel_idx)]
-        if self.GOAL_OBSERVATION:
-            self._goal[:] = obs[n + len(self._qvel_idx) :]
+        if self._n_extra:
+            self._extra[:] = obs[n + len(self._qvel_idx) :]
+            self._extra_written()
+
+    def _extra_written(self) -> None:
+        """Called when a reset observation set the extra entries; subclasses apply them (e.g. the body size)."""
+
+    def _prepare_episode(self, frame: int | None) -> None:
+        """Called first at every reset with the dataset frame the episode starts from (or None)."""
 
     def _reset_goal(self) -> None:
         """Embodiments with a goal in the observation choose it here (default: forward at target speed)."""
@@ -422,7 +441,7 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         z = obs[self._root_z_i]
         qx, qy = obs[self._qx_i], obs[self._qy_i]
         up_z = 1.0 - 2.0 * (qx * qx + qy * qy)  # z component of the root's z axis in the world
-        lo, hi = self.ROOT_HEIGHT_RANGE
+        lo, hi = self._root_height_range
         return bool(z < lo or z > hi or up_z < self._cos_max_tilt)
 
     def reward(self, obs: np.ndarray, action: np.ndarray, next_obs: np.ndarray, absorbing: bool) -> float:

@@ -39,7 +39,7 @@ class TrajectoryMixin:
                 self._dataset = load_any_dataset(type(self), self.dataset_path)
             elif self.dataset_type == "real":
                 from loco_mujoco.datasets.registry import load_dataset
-                self._dataset = load_dataset(type(self), self.task_name, self.dataset_variant)
+                self._dataset = load_dataset(type(self), self.task_name, self.dataset_variant, mode=self.mode)
             else:
                 from loco_mujoco.datasets.registry import DatasetUnavailableError
                 raise DatasetUnavailableError(
@@ -78,9 +78,12 @@ class TrajectoryMixin:
         frames = slice(None) if frames is None else frames
         qpos, qvel = self.dataset_states(frames)
         parts = [qpos[:, self._qpos_idx], qvel[:, self._qvel_idx]]
-        if self.GOAL_OBSERVATION:
-            parts.append(self._dataset_goals()[frames])
+        parts += self._dataset_extras(frames)
         return np.concatenate(parts, axis=1)
+
+    def _dataset_extras(self, frames: np.ndarray | slice) -> list[np.ndarray]:
+        """The extra observation entries (see ``extra_observations``) of dataset frames."""
+        return [self._dataset_goals()[frames]] if self.GOAL_OBSERVATION else []
 
     def _dataset_goals(self) -> np.ndarray:
         """Goal (cos, sin, speed) of every dataset frame from its root velocity averaged over 0.5 s."""

@@ -154,11 +154,11 @@ def _align_heading(traj: RetargetedMotion, seconds: float = 1.0) -> None:
     traj.qpos[:, 4:7] = w1 * v2 + w2[:, None] * v1 + np.cross(v1, v2)
 
 
-def _retarget_env(env_cls: type[LocoEnv], task: str) -> LocoEnv:
-    return env_cls(task=task, disable_arms=False, control="torque", reward_type="none")
+def _retarget_env(env_cls: type[LocoEnv], task: str, mode: str | None) -> LocoEnv:
+    return env_cls(task=task, mode=mode, disable_arms=False, control="torque", reward_type="none")
 
 
-def cache_path(env_cls: type[LocoEnv], task: str, variant: str) -> Path:
+def cache_path(env_cls: type[LocoEnv], task: str, variant: str, mode: str | None = None) -> Path:
     """The cache file of a dataset; its name carries a hash of everything that determines its content."""
     from loco_mujoco.datasets.sources.fetch import SOURCE_FILES
 
@@ -166,33 +166,66 @@ def cache_path(env_cls: type[LocoEnv], task: str, variant: str) -> Path:
     key = json.dumps({"version": BUILD_VERSION, "recipe": asdict(recipe), "frequency": FREQUENCY,
                       "sources": [SOURCE_FILES[c.path].sha256 for c in recipe.clips]}, sort_keys=True)
     digest = hashlib.sha256(key.encode()).hexdigest()[:12]
-    return cache_dir() / "datasets" / f"{env_cls.__name__}.{task}.real.{variant}.{digest}.npz"
+    name = ".".join([env_cls.__name__, task] + ([mode] if mode else []) + ["real", variant, digest])
+    return cache_dir() / "datasets" / f"{name}.npz"
 
 
 def load_dataset(env_cls: type[LocoEnv], task: str, variant: str | None = None, rebuild: bool = False,
-                 progress: bool = True) -> TrajectoryDataset:
-    """The task's real dataset from the cache, building it first if needed."""
+                 progress: bool = True, mode: str | None = None) -> TrajectoryDataset:
+    """The task's real dataset from the cache, building it first if needed.
+
+    For body-size environments, mode ``all`` joins the datasets of every size (each retargeted onto its
+    own body) and records each trajectory's size in ``metadata["sizes"]``.
+    """
     variant = resolve_variant(env_cls, task, variant)
-    path = cache_path(env_cls, task, variant)
+    sizes = getattr(env_cls, "SIZES", None)
+    if sizes and mode == "all":
+        parts = [load_dataset(env_cls, task, variant, rebuild, progress, size) for size in sizes]
+        return join_sizes(parts, sizes)
+    path = cache_path(env_cls, task, variant, mode)
     if path.exists() and not rebuild:
         return TrajectoryDataset.load(path)
-    dataset = build_dataset(env_cls, task, variant, progress=progress)
+    dataset = build_dataset(env_cls, task, variant, progress=progress, mode=mode)
     dataset.save(path)
     return dataset
 
 
+def join_sizes(parts: list[TrajectoryDataset], sizes: tuple[str, ...]) -> TrajectoryDataset:
+    """One dataset from the per-size datasets of a body-size environment, trajectories labelled by size."""
+    first = parts[0]
+    splits = np.concatenate([[0], np.cumsum([p.n_frames for p in parts])])
+    split_points = np.concatenate([p.split_points[:-1] + off for p, off in zip(parts, splits[:-1], strict=True)]
+                                  + [[splits[-1]]])
+    metadata = dict(first.metadata)
+    metadata["mode"] = "all"
+    metadata["sizes"] = [size for p, size in zip(parts, sizes, strict=True) for _ in range(p.n_trajectories)]
+    metadata["trajectories"] = [t for p in parts for t in p.metadata["trajectories"]]
+    metadata["per_size"] = {size: {k: p.metadata[k] for k in ("mean_forward_speed", "mean_speed", "quality")}
+                            for p, size in zip(parts, sizes, strict=True)}
+    frames = np.array([p.n_frames for p in parts], dtype=float)
+    metadata["quality"] = {k: float(np.max([p.metadata["quality"][k] for p in parts])) if k.endswith("max_m") else
+                           float(np.average([p.metadata["quality"][k] for p in parts], weights=frames))
+                           for k in first.metadata["quality"]}
+    for key in ("mean_forward_speed", "mean_speed"):
+        metadata[key] = float(np.average([p.metadata[key] for p in parts], weights=frames))
+    metadata["seconds"] = float(sum(p.metadata["seconds"] for p in parts))
+    return TrajectoryDataset(np.concatenate([p.qpos for p in parts]), np.concatenate([p.qvel for p in parts]),
+                             split_points, first.frequency, first.joint_names, metadata)
+
+
 def build_dataset(env_cls: type[LocoEnv], task: str, variant: str | None = None,
-                  progress: bool = True) -> TrajectoryDataset:
+                  progress: bool = True, mode: str | None = None) -> TrajectoryDataset:
     """Parse, retarget and concatenate a task's clips into a dataset with provenance and quality figures."""
     from loco_mujoco.datasets.sources.fetch import SOURCE_FILES
 
     variant = resolve_variant(env_cls, task, variant)
     recipe = variants(env_cls, task)[variant]
-    env = _retarget_env(env_cls, task)
+    env = _retarget_env(env_cls, task, mode)
     model, base = env.model, env.home_qpos(env.model)
     spec = env_cls.RETARGET
     trajectories: list[RetargetedMotion] = []
-    for clip in tqdm(recipe.clips, desc=f"building {env_cls.__name__}.{task} ({variant})", disable=not progress,
+    label = ".".join([env_cls.__name__, task] + ([mode] if mode else []))
+    for clip in tqdm(recipe.clips, desc=f"building {label} ({variant})", disable=not progress,
                      unit="clip"):
         motion = _trim(_load_motion(clip.path), clip)
         if isinstance(spec, HumanoidRetarget):
@@ -220,7 +253,7 @@ def build_dataset(env_cls: type[LocoEnv], task: str, variant: str | None = None,
                         "url": info.url, "sha256": info.sha256})
     commercial = all(s["commercial_use"] for s in sources)
     metadata = {
-        "env": env_cls.__name__, "task": task, "dataset_type": "real", "variant": variant,
+        "env": env_cls.__name__, "task": task, "mode": mode, "dataset_type": "real", "variant": variant,
         "frequency": FREQUENCY, "seconds": float((frames - 1).sum() / FREQUENCY),
         "mean_forward_speed": quality["mean_forward_speed_mps"],
         "mean_speed": quality["mean_speed_mps"], "quality": quality,

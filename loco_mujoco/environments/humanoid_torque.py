@@ -10,6 +10,7 @@ import math
 
 import mujoco
 
+from loco_mujoco.core.body_sizes import BodySizesMixin
 from loco_mujoco.core.loco_env import LocoEnv, Task
 from loco_mujoco.datasets.retarget import HumanoidRetarget, LegJoints
 from loco_mujoco.models.authoring import load_own_spec
@@ -41,3 +42,10 @@ class HumanoidTorque(LocoEnv):
 
     def load_spec(self) -> mujoco.MjSpec:
         return load_own_spec("humanoid_torque")
+
+
+class HumanoidTorque4Ages(BodySizesMixin, HumanoidTorque):
+    """The skeleton at four statures: mode 1 (0.86 m, ~2 years), 2 (1.10 m, ~5 years), 3 (1.50 m, ~12 years),
+    4 (1.78 m, adult), or ``all`` (one sampled per episode, size code in the observation)."""
+
+    ADULT_STATURE_M = 1.78  # top of the head to the sole in the home pose of humanoid_torque.xml
