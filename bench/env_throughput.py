@@ -20,8 +20,11 @@ import numpy as np
 
 from loco_mujoco import LocoEnv
 
-DEFAULT_ENVS = ["UnitreeH1.walk", "Talos.walk", "UnitreeA1.simple"]
-REFERENCE = {"UnitreeH1": 3193, "Talos": 2231, "UnitreeA1": 2345}  # reference implementation, same protocol
+DEFAULT_ENVS = ["UnitreeH1.walk", "Talos.walk", "UnitreeA1.simple", "Atlas.walk", "HumanoidTorque.walk",
+                "HumanoidTorque4Ages.walk.all", "HumanoidMuscle.walk", "HumanoidMuscle4Ages.walk.all"]
+# Reference implementation, same protocol and machine type; the 4-size variants are compared with their base.
+REFERENCE = {"UnitreeH1": 3193, "Talos": 2231, "UnitreeA1": 2345, "Atlas": 1026, "HumanoidTorque": 1618,
+             "HumanoidMuscle": 2647}
 
 
 def run_env(env: LocoEnv, actions: np.ndarray) -> tuple[float, list[int], np.ndarray]:
@@ -66,16 +69,22 @@ def measure(name: str, steps: int, repeats: int, seed: int = 0) -> dict:
     ctrls = env.action_to_ctrl(actions)  # what env.step writes to data.ctrl
     run_env(env, actions[:200])  # warm-up
     env_times, raw_times = [], []
+    # Mode "all" swaps the body size at each reset: there is no single raw model to replay against.
+    resizes = getattr(env, "mode", None) == "all"
     for _ in range(repeats):
         t_env, resets, q_env = run_env(env, actions)
+        if resizes:
+            env_times.append(t_env)
+            raw_times.append(np.nan)
+            continue
         t_raw, q_raw = run_raw(env, ctrls, resets)
         if not np.array_equal(q_env, q_raw):
             raise RuntimeError(f"{name}: env and raw runs diverged; the comparison would be unfair")
         env_times.append(t_env)
         raw_times.append(t_raw)
-    t_env, t_raw = min(env_times), min(raw_times)
+    t_env, t_raw = min(env_times), min(raw_times) if not resizes else np.nan
     return {"env": name, "env_sps": steps / t_env, "raw_sps": steps / t_raw, "ratio": t_env / t_raw,
-            "resets": len(resets), "ref": REFERENCE.get(name.split(".")[0])}
+            "resets": len(resets), "ref": REFERENCE.get(name.split(".")[0].removesuffix("4Ages"))}
 
 
 def main() -> None:
@@ -86,7 +95,7 @@ def main() -> None:
     args = parser.parse_args()
     print(f"# {platform.processor() or platform.machine()}, mujoco {mujoco.__version__}, "
           f"{args.steps} steps, best of {args.repeats}")
-    header = (f"| {'environment':<18} | {'env steps/s':>11} | {'raw steps/s':>11} | {'env/raw cost':>12} | "
+    header = (f"| {'environment':<28} | {'env steps/s':>11} | {'raw steps/s':>11} | {'env/raw cost':>12} | "
               f"{'resets':>6} | {'reference':>9} | {'x reference':>11} |")
     print(header)
     print("|" + "|".join("-" * (len(c)) for c in header.split("|")[1:-1]) + "|")
@@ -94,7 +103,9 @@ def main() -> None:
         r = measure(name, args.steps, args.repeats)
         ref = f"{r['ref']:,}" if r["ref"] else "-"
         speedup = f"{r['env_sps'] / r['ref']:.2f}" if r["ref"] else "-"
-        print(f"| {name:<18} | {r['env_sps']:>11,.0f} | {r['raw_sps']:>11,.0f} | {r['ratio']:>12.3f} | "
+        raw = f"{r['raw_sps']:>11,.0f}" if np.isfinite(r["raw_sps"]) else f"{'-':>11}"
+        ratio = f"{r['ratio']:>12.3f}" if np.isfinite(r["ratio"]) else f"{'-':>12}"
+        print(f"| {name:<28} | {r['env_sps']:>11,.0f} | {raw} | {ratio} | "
               f"{r['resets']:>6} | {ref:>9} | {speedup:>11} |", flush=True)
 
 

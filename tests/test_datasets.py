@@ -17,6 +17,12 @@ BOUNDS = {
     "UnitreeH1.run": {"sliding": 0.05, "speed": (2.0, 4.0)},
     "Talos.walk": {"sliding": 0.25, "speed": (0.4, 1.5)},
     "UnitreeA1.simple": {"sliding": 0.30, "speed": (0.4, 1.5)},
+    "Atlas.walk": {"sliding": 0.25, "speed": (0.5, 1.5)},
+    "Atlas.carry": {"sliding": 0.25, "speed": (0.5, 1.5)},
+    "HumanoidTorque.walk": {"sliding": 0.25, "speed": (0.5, 1.5)},
+    "HumanoidTorque.run": {"sliding": 0.05, "speed": (2.0, 4.0)},
+    "HumanoidTorque4Ages.walk.1": {"sliding": 0.25, "speed": (0.2, 1.0)},  # 0.86 m tall
+    "HumanoidTorque4Ages.run.3": {"sliding": 0.05, "speed": (1.5, 4.0)},
 }
 
 

@@ -37,8 +37,8 @@ def test_every_task_constructs_steps_and_matches_its_spaces(make_env, name):
 def test_observation_excludes_horizontal_root_position_and_matches_mushroom_helper(make_env, name):
     env = make_env(name)
     obs = env.reset()
-    n_goal = 3 if env.GOAL_OBSERVATION else 0
-    assert obs.shape == (env.model.nq - 2 + env.model.nv + n_goal,)
+    n_extra = sum(dim for _, dim in env.extra_observations())  # goal, body-size code
+    assert obs.shape == (env.model.nq - 2 + env.model.nv + n_extra,)
     np.testing.assert_array_equal(obs[: env.model.nq - 2], env.data.qpos[2:])
     np.testing.assert_array_equal(obs[env.model.nq - 2 : env.model.nq - 2 + env.model.nv], env.data.qvel)
     for _ in range(5):
@@ -145,7 +145,7 @@ def test_fall_detection_on_height_and_tilt(make_env, name):
     obs = env.reset().copy()
     z = env.get_obs_idx("q_root")[0]
     low = obs.copy()
-    low[z] = env.ROOT_HEIGHT_RANGE[0] - 0.01
+    low[z] = env.root_height_range[0] - 0.01
     assert env.is_absorbing(low)
     tilted = obs.copy()
     angle = env.MAX_TILT + 0.05  # rotate about the x axis past the bound

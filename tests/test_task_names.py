@@ -6,7 +6,9 @@ from loco_mujoco.core.task_names import parse_task_name
 
 EXPECTED = ["UnitreeH1.walk", "UnitreeH1.run", "UnitreeH1.carry", "Talos.walk", "Talos.carry",
             "UnitreeA1.simple", "UnitreeA1.hard", "Atlas.walk", "Atlas.carry", "HumanoidTorque.walk",
-            "HumanoidTorque.run"]
+            "HumanoidTorque.run", "HumanoidMuscle.walk", "HumanoidMuscle.run"]
+EXPECTED += [f"{env}4Ages.{task}.{mode}" for env in ("HumanoidTorque", "HumanoidMuscle") for task in ("walk", "run")
+             for mode in ("all", "1", "2", "3", "4")]
 
 
 def test_list_tasks_has_every_task_and_dataset_type():

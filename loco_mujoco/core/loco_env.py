@@ -458,6 +458,11 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         return self._obs_idx[name].copy()
 
     @property
+    def root_height_range(self) -> tuple[float, float]:
+        """Root heights (m) outside which the robot counts as fallen, for the current body size."""
+        return self._root_height_range
+
+    @property
     def obs_names(self) -> list[str]:
         """Observation entries in order."""
         return list(self._obs_idx)
