@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
-from scipy.ndimage import percentile_filter
+from scipy.ndimage import percentile_filter, uniform_filter1d
 from scipy.spatial.transform import Rotation
 
 from loco_mujoco.datasets.human_gait import SIDES, HumanGait
@@ -21,6 +21,7 @@ from loco_mujoco.datasets.resample import resample_angles, resample_quat
 
 # A source's root must rise this far (m) above what its legs reach before the frame counts as flight.
 FLIGHT_MARGIN = 0.025
+ODOMETRY_SPEED_TOLERANCE = 0.5  # m/s: how far a stance foot's speed may stray from the body's before it is doubted
 
 # Rotation axis (pelvis frame) and sign of each anatomical angle, per side: robot angle = angle * (axis . joint axis).
 _ANATOMICAL_AXES = {
@@ -261,16 +262,20 @@ def _ground_and_odometry(qpos: np.ndarray, feet: _Feet, source_root_z: np.ndarra
     idx = np.arange(len(qpos))[:, None]
     contact_vel = vel_rel[idx, np.arange(rel.shape[1])[None], lowest]  # (N, feet, 2)
     # Odometry trusts the feet nearest the ground most: a foot just touching down or lifting off still moves.
-    weights = contact * np.exp(-(ground - ground.min(axis=1, keepdims=True)) / 0.003)
-    has_contact = weights.sum(axis=1) > 0
-    root_v = np.full((len(qpos), 2), np.nan)
-    root_v[has_contact] = -(contact_vel[has_contact] * weights[has_contact, :, None]).sum(axis=1) / \
-        weights[has_contact].sum(axis=1, keepdims=True)
+    height_w = contact * np.exp(-(ground - ground.min(axis=1, keepdims=True)) / 0.003)
+    has_contact = height_w.sum(axis=1) > 0
     if not has_contact.any():
         raise ValueError("no foot ever touches the ground; cannot place the root")
-    frames = np.arange(len(qpos))
-    for k in range(2):  # flight: constant-velocity interpolation between stance phases
-        root_v[~has_contact, k] = np.interp(frames[~has_contact], frames[has_contact], root_v[has_contact, k])
+    root_v = _weighted_root_velocity(contact_vel, height_w, has_contact)
+    # Second pass: a planted foot moves against the body at the body's speed. A swinging foot that skims the
+    # floor does not, so weight each foot by how well it agrees with the smoothed first estimate.
+    smooth = uniform_filter1d(root_v, size=max(3, int(round(0.3 * frequency))), axis=0, mode="nearest")
+    mismatch = np.linalg.norm(contact_vel + smooth[:, None, :], axis=2)
+    agree_w = height_w * np.exp(-((mismatch / ODOMETRY_SPEED_TOLERANCE) ** 2))
+    usable = agree_w.sum(axis=1) > 1e-6 * height_w.sum(axis=1)
+    root_v = np.where(usable[:, None], _weighted_root_velocity(contact_vel, np.where(usable[:, None], agree_w,
+                                                                                      height_w), has_contact),
+                      root_v)
     root_xy = np.concatenate([np.zeros((1, 2)), np.cumsum(0.5 * (root_v[1:] + root_v[:-1]) * dt, axis=0)])
     qpos[:, :2] = root_xy
     qpos[:, 2] = root_z
@@ -288,6 +293,17 @@ def _ground_and_odometry(qpos: np.ndarray, feet: _Feet, source_root_z: np.ndarra
         "mean_speed_mps": float(np.mean(np.linalg.norm(root_v, axis=1))),
     }
     return qpos, quality
+
+
+def _weighted_root_velocity(contact_vel: np.ndarray, weights: np.ndarray, has_contact: np.ndarray) -> np.ndarray:
+    """Root velocity as minus the weighted contact-point velocity; flight frames interpolated between stances."""
+    root_v = np.full((len(contact_vel), 2), np.nan)
+    w = weights[has_contact]
+    root_v[has_contact] = -(contact_vel[has_contact] * w[:, :, None]).sum(axis=1) / w.sum(axis=1, keepdims=True)
+    frames = np.arange(len(contact_vel))
+    for k in range(2):  # flight: constant-velocity interpolation between stance phases
+        root_v[~has_contact, k] = np.interp(frames[~has_contact], frames[has_contact], root_v[has_contact, k])
+    return root_v
 
 
 def velocities(model: mujoco.MjModel, qpos: np.ndarray, frequency: float) -> np.ndarray:
