@@ -23,6 +23,9 @@ BOUNDS = {
     "HumanoidTorque.run": {"sliding": 0.05, "speed": (2.0, 4.0)},
     "HumanoidTorque4Ages.walk.1": {"sliding": 0.25, "speed": (0.2, 1.0)},  # 0.86 m tall
     "HumanoidTorque4Ages.run.3": {"sliding": 0.05, "speed": (1.5, 4.0)},
+    "HumanoidMuscle.walk": {"sliding": 0.25, "speed": (0.5, 1.5)},
+    "HumanoidMuscle.run": {"sliding": 0.05, "speed": (2.0, 4.0)},
+    "HumanoidMuscle4Ages.walk.2": {"sliding": 0.25, "speed": (0.3, 1.2)},
 }
 
 

@@ -156,3 +156,30 @@ def test_new_task_starts_from_expert_states_and_steps(name):
         obs, reward, _, _ = env.step(np.zeros(env.model.nu))
         assert np.all(np.isfinite(obs)) and 0.0 <= reward <= 1.0
     assert isinstance(env, (Atlas, HumanoidTorque))
+
+
+def test_muscle_sizes_scale_forces_by_height_squared_and_lengths_match_recomputation():
+    from loco_mujoco.environments import HumanoidMuscle4Ages
+    from loco_mujoco.models.myo_human import load_myo_human_spec
+
+    small = lm.LocoEnv.make("HumanoidMuscle4Ages.walk.1", reward_type="none")
+    adult = lm.LocoEnv.make("HumanoidMuscle4Ages.walk.4", reward_type="none")
+    f = HumanoidMuscle4Ages.size_factor("1")
+    assert f == pytest.approx(0.86 / 1.70)
+    assert small.model.body_subtreemass[0] == pytest.approx(adult.model.body_subtreemass[0] * f**3, rel=1e-6)
+    np.testing.assert_allclose(small.model.actuator_gainprm[:, 2], adult.model.actuator_gainprm[:, 2] * f**2)
+    np.testing.assert_allclose(small.model.actuator_lengthrange, adult.model.actuator_lengthrange * f)
+    # the compiler, asked to recompute a scaled muscle's length range from the geometry, agrees
+    spec = load_myo_human_spec()
+    scale_spec(spec, 0.5)
+    for i in (0, 40):
+        spec.actuators[i].lengthrange = [0.0, 0.0]
+    recomputed = spec.compile()
+    base = load_myo_human_spec().compile()
+    for i in (0, 40):
+        np.testing.assert_allclose(recomputed.actuator_lengthrange[i], 0.5 * base.actuator_lengthrange[i], rtol=0.03)
+    # tendon (muscle path) lengths at home follow the geometry exactly
+    d_small, d_adult = small.data, adult.data
+    small.reset()
+    adult.reset()
+    np.testing.assert_allclose(d_small.ten_length, d_adult.ten_length * f, rtol=1e-6)

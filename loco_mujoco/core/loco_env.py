@@ -26,7 +26,7 @@ from loco_mujoco.core.task_names import DATASET_TYPES, DEFAULT_DATASET_TYPE, par
 from loco_mujoco.core.trajectory_api import TrajectoryMixin
 from loco_mujoco.models import spec_edit
 
-CONTROL_MODES = ("torque", "pd")
+CONTROL_MODES = ("torque", "pd", "muscle")
 
 # Simulation defaults, chosen by bench/timestep_study.py (see BENCHMARKS.md): implicit-in-velocity
 # integration at 2 ms is as stable as 1 ms with 10 substeps on every robot here and twice as fast.
@@ -65,6 +65,7 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
     MODES: ClassVar[tuple[str, ...]] = ()
     DATASET_TYPES: ClassVar[tuple[str, ...]] = DATASET_TYPES
     DEFAULT_CONTROL: ClassVar[str] = "torque"
+    CONTROLS: ClassVar[tuple[str, ...]] = ("torque", "pd")  # the control modes this embodiment offers
     TASK_REWARD: ClassVar[str] = "target_velocity"
     ARM_JOINTS: ClassVar[tuple[str, ...]] = ()
     LEG_ROOTS: ClassVar[tuple[str, str] | None] = None  # (left, right) for self-collision filtering
@@ -105,7 +106,8 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
             task: one of ``TASKS`` (default: the first).
             mode: one of ``MODES`` for environments that have them.
             dataset_type: ``real``, ``perfect`` or ``preference``.
-            control: ``torque`` (normalised motor torques) or ``pd`` (normalised joint targets).
+            control: ``torque`` (normalised motor torques), ``pd`` (normalised joint targets) or, for
+                musculoskeletal models, ``muscle`` (excitations).
             disable_arms: remove arm (and head) joints and actuators; arms are welded at the home pose.
             reward_type: ``task`` (the task's own), ``target_velocity``, ``velocity_vector``, ``custom``
                 (``reward_params={"callback": f}``) or ``none``.
@@ -123,7 +125,7 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
             raise ValueError(f"{type(self).__name__} has no modes, got mode={mode!r}")
         self._validate_choice("dataset_type", dataset_type, self.DATASET_TYPES)
         control = control or self.DEFAULT_CONTROL
-        self._validate_choice("control", control, CONTROL_MODES)
+        self._validate_choice(f"control for {type(self).__name__}", control, self.CONTROLS)
         self._validate_choice("reward_type", reward_type, rw.REWARD_TYPES)
         if not (timestep > 0 and int(n_substeps) >= 1):
             raise ValueError(f"timestep must be > 0 and n_substeps >= 1, got {timestep} and {n_substeps}")

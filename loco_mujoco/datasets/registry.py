@@ -155,7 +155,7 @@ def _align_heading(traj: RetargetedMotion, seconds: float = 1.0) -> None:
 
 
 def _retarget_env(env_cls: type[LocoEnv], task: str, mode: str | None) -> LocoEnv:
-    return env_cls(task=task, mode=mode, disable_arms=False, control="torque", reward_type="none")
+    return env_cls(task=task, mode=mode, disable_arms=False, reward_type="none")
 
 
 def cache_path(env_cls: type[LocoEnv], task: str, variant: str, mode: str | None = None) -> Path:

@@ -18,6 +18,7 @@ from scipy.spatial.transform import Rotation
 from loco_mujoco.datasets.human_gait import SIDES, HumanGait
 from loco_mujoco.datasets.motion import Motion
 from loco_mujoco.datasets.resample import resample_angles, resample_quat
+from loco_mujoco.models.couplings import apply_joint_couplings
 
 # A source's root must rise this far (m) above what its legs reach before the frame counts as flight.
 FLIGHT_MARGIN = 0.025
@@ -138,6 +139,11 @@ def _geom_points(model: mujoco.MjModel, g: int) -> tuple[list[np.ndarray], float
     elif kind == mujoco.mjtGeom.mjGEOM_BOX:
         local = [np.array([a, b, c]) * size for a in (-1, 1) for b in (-1, 1) for c in (-1, 1)]
         radius = 0.0
+    elif kind == mujoco.mjtGeom.mjGEOM_ELLIPSOID:  # surface points along 98 directions (mm-accurate lowest point)
+        grid = np.array([[a, b, c] for a in (-1, -0.5, 0, 0.5, 1) for b in (-1, -0.5, 0, 0.5, 1)
+                         for c in (-1, -0.5, 0, 0.5, 1) if (a, b, c) != (0, 0, 0)])
+        dirs = np.unique(grid / np.linalg.norm(grid, axis=1, keepdims=True), axis=0)
+        local, radius = list(dirs * size), 0.0
     elif kind == mujoco.mjtGeom.mjGEOM_CYLINDER:
         ang = np.linspace(0, 2 * np.pi, 16, endpoint=False)
         local = [np.array([size[0] * np.cos(a), size[0] * np.sin(a), s * size[1]]) for a in ang for s in (-1, 1)]
@@ -196,6 +202,7 @@ def retarget_human(gait: HumanGait, model: mujoco.MjModel, spec: HumanoidRetarge
             alignment = float(np.dot(axes[leg.ankle_roll], (1, 0, 0)))
             adr, lo, hi = _joint_limits(model, leg.ankle_roll)
             qpos[:, adr] = np.clip(-np.sign(alignment) * sign * gait.angles[side]["hip_adduction"], lo, hi)
+    qpos = apply_joint_couplings(model, qpos)
     rot = Rotation.from_euler("ZX", np.stack([gait.pelvis_yaw, gait.pelvis_roll], axis=1))
     qpos[:, 3:7] = rot.as_quat()[:, [3, 0, 1, 2]]
     feet = _Feet(model, tuple(spec.legs[s].foot_body for s in SIDES))

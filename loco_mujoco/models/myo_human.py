@@ -5,7 +5,8 @@ MyoLeg (Rajagopal et al. 2016 lineage: 80 Hill-type muscles on 80 spatial tendon
 to myo-sim's passive anatomical torso scaffold (pelvis/spine/thorax/head welded together, no arms) under one free
 body. Everything here is edited through the MjSpec API: the myo-sim display scene is replaced by a plain floor, and
 what locomotion does not use but would cost simulation time is removed (sensors, ~740 unused torso muscle sites,
-self-contacts and all contacts except feet-floor). Muscle, tendon, joint and inertial parameters are untouched.
+bone-floor contacts other than the soles'). The passive torso's 15 welded bodies become one rigid body with the
+same mass properties. Muscle, tendon, joint and inertial parameters are untouched.
 """
 
 from __future__ import annotations
@@ -21,8 +22,13 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from loco_mujoco.models.couplings import apply_joint_couplings
+
 MYO_SIM_MODEL = "myolegs"  # myo-sim's registry name: passive torso scaffold + MyoLeg, with a free joint "root"
 ROOT_BODY = "root"  # myo-sim's "Full Body": a world-aligned frame at the pelvis origin holding the free joint
+TORSO_BODY = "torso"  # the rigid upper body (sacrum, lumbar spine, thorax, neck, head; no arms), fixed to the pelvis
+_MYO_ROOT_BODY = "Full Body"
+_SCAFFOLD_TOP = "sacrum"  # top body of myo-sim's passive torso scaffold: 15 bodies welded to the root
 HOME_KEY = "home"
 FLOOR = "floor"
 
@@ -58,7 +64,7 @@ def myo_sim_models_dir() -> Path:
 def load_myo_human_spec() -> mujoco.MjSpec:
     """An editable MjSpec of the musculoskeletal human standing on a floor, with a ``home`` keyframe.
 
-    Built once per process (myo-sim composes its model from XML fragments, ~0.7 s) and copied on each call.
+    Built once per process (~1 s, mostly myo-sim composing its model from XML fragments) and copied on each call.
     """
     return _composed_spec().copy()
 
@@ -80,18 +86,33 @@ def _composed_spec() -> mujoco.MjSpec:
     _replace_scene(spec)
     for sensor in list(spec.sensors):  # foot touch sensors: unused, and computed every step
         spec.delete(sensor)
-    for pair in list(spec.pairs):  # leg-against-leg bone contacts; see _keep_only_foot_floor_contacts
-        spec.delete(pair)
-    _keep_only_foot_floor_contacts(spec)
-    root = spec.body("Full Body")
-    root.name = ROOT_BODY
     frees = [j for j in spec.joints if j.type == mujoco.mjtJoint.mjJNT_FREE]
-    if len(frees) != 1 or frees[0].parent.name != ROOT_BODY:
-        raise RuntimeError(f"myo-sim's '{MYO_SIM_MODEL}' changed: expected one free joint on its root body")
-    model = spec.compile()
-    _delete_unused_sites(spec, model)
-    spec.add_key(name=HOME_KEY, qpos=standing_qpos(model).tolist())
+    if len(frees) != 1 or frees[0].parent.name != _MYO_ROOT_BODY:
+        raise RuntimeError(f"myo-sim's '{MYO_SIM_MODEL}' changed: expected one free joint on '{_MYO_ROOT_BODY}'")
+    with warnings.catch_warnings():  # compiling the composed spec repeats MuJoCo's empty-prefix warning
+        warnings.simplefilter("ignore", UserWarning)
+        _merge_torso_scaffold(spec, spec.compile())
+        spec.body(_MYO_ROOT_BODY).name = ROOT_BODY
+        # myo-sim's legs face -y; every other model here walks along +x: turn the body 90 deg about z under the
+        # world-aligned root, so the free joint's quaternion stays identity when standing.
+        legs = spec.body(ROOT_BODY).first_body()
+        legs.quat = _quat_mul(np.array([math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4)]),
+                              np.asarray(legs.quat, dtype=float))
+        _keep_only_foot_floor_contacts(spec)
+        model = spec.compile()
+        _delete_unused_sites(spec, model)
+        pruned = spec.compile()
+    # Deleting a site a tendon uses can make MuJoCo drop that tendon and its muscle: make sure none went.
+    if (pruned.ntendon, pruned.nu, pruned.nwrap) != (model.ntendon, model.nu, model.nwrap):
+        raise RuntimeError("deleting unused sites removed tendons or muscles")
+    spec.add_key(name=HOME_KEY, qpos=standing_qpos(pruned).tolist())
     return spec
+
+
+def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    out = np.zeros(4)
+    mujoco.mju_mulQuat(out, a, b)
+    return out
 
 
 def _replace_scene(spec: mujoco.MjSpec) -> None:
@@ -110,51 +131,125 @@ def _replace_scene(spec: mujoco.MjSpec) -> None:
     spec.stat.extent = math.nan  # myo-sim's scene fixed these for its backdrop; let MuJoCo compute them
     spec.stat.center = [math.nan, 0.0, 0.0]
 
-    spec.add_texture(name="floor_grid", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
-                     rgb1=[0.32, 0.36, 0.40], rgb2=[0.22, 0.25, 0.28], width=256, height=256,
-                     mark=mujoco.mjtMark.mjMARK_EDGE, markrgb=[0.6, 0.6, 0.6])
-    spec.add_material(name="floor_grid", textures=["", "floor_grid"], texrepeat=[1, 1], texuniform=True,
-                      reflectance=0.05)
+    spec.add_texture(name="floor_grid", type=mujoco.mjtTexture.mjTEXTURE_2D,
+                     builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, rgb1=[0.32, 0.36, 0.40], rgb2=[0.22, 0.25, 0.28],
+                     width=256, height=256, mark=mujoco.mjtMark.mjMARK_EDGE, markrgb=[0.6, 0.6, 0.6])
+    material = spec.add_material(name="floor_grid", texrepeat=[1, 1], texuniform=True, reflectance=0.05)
+    material.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "floor_grid"  # assigning a short list corrupts memory
     spec.worldbody.add_geom(name=FLOOR, type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05], material="floor_grid",
                             contype=1, conaffinity=1, condim=3, group=1)
     spec.worldbody.add_light(name="sun", type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL, pos=[0, 0, 4],
-                             dir=[0.2, 0.3, -1.0], diffuse=[0.7, 0.7, 0.7], specular=[0.2, 0.2, 0.2],
-                             castshadow=True)
-    spec.worldbody.add_light(name="spot", mode=mujoco.mjtCamLight.mjCAMLIGHT_TRACKCOM, pos=[0, -3, 3],
-                             dir=[0, 1, -1], diffuse=[0.4, 0.4, 0.4], castshadow=False)
+                             dir=[0.2, 0.3, -1.0], diffuse=[0.5, 0.5, 0.5], specular=[0.2, 0.2, 0.2],
+                             castshadow=False)
+    spec.worldbody.add_light(name="spot", mode=mujoco.mjtCamLight.mjCAMLIGHT_TRACKCOM, pos=[0, -2, 4],
+                             dir=[0, 0.5, -1], diffuse=[0.5, 0.5, 0.5], cutoff=60, castshadow=True)
+
+
+def _merge_torso_scaffold(spec: mujoco.MjSpec, model: mujoco.MjModel) -> None:
+    """Replace myo-sim's passive torso scaffold by one rigid body with its mass, centre of mass, inertia and meshes.
+
+    The scaffold's 15 bodies have no joints, so one body with their combined inertia moves identically; it also drops
+    the ~700 sites of the torso muscles myo-sim removed (deleting them one by one takes MuJoCo seconds), the torso's
+    unused wrapping surfaces and its collision geoms.
+    """
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    root, top, pelvis = (model.body(n).id for n in (_MYO_ROOT_BODY, _SCAFFOLD_TOP, "pelvis"))
+    scaffold = [b for b in range(model.nbody) if _is_in_subtree(model, b, top)]
+    origin, to_root = data.xpos[root].copy(), data.xmat[root].reshape(3, 3).T  # world -> root frame
+
+    masses = model.body_mass[scaffold]
+    coms = (data.xipos[scaffold] - origin) @ to_root.T
+    mass = float(masses.sum())
+    com = masses @ coms / mass
+    inertia = np.zeros((3, 3))
+    for b, m, c in zip(scaffold, masses, coms, strict=True):
+        rot = to_root @ data.ximat[b].reshape(3, 3)
+        r = c - com
+        inertia += rot @ np.diag(model.body_inertia[b]) @ rot.T + m * (r @ r * np.eye(3) - np.outer(r, r))
+
+    meshes = []  # (mesh, material, rgba, group, pos, quat) of the bone meshes, in the root frame, as authored
+    for g in range(model.ngeom):
+        if (model.geom_bodyid[g] not in scaffold or model.geom_type[g] != mujoco.mjtGeom.mjGEOM_MESH
+                or model.geom_contype[g] or model.geom_conaffinity[g]):
+            continue
+        mesh = int(model.geom_dataid[g])
+        quat = _mat2quat(to_root @ data.geom_xmat[g].reshape(3, 3))
+        # The compiler re-centres a mesh on its inertia frame and moves the geom by (mesh_pos, mesh_quat): undo it.
+        authored_quat = np.zeros(4)
+        mujoco.mju_mulQuat(authored_quat, quat, _conj(model.mesh_quat[mesh]))
+        offset = np.zeros(3)
+        mujoco.mju_rotVecQuat(offset, model.mesh_pos[mesh], authored_quat)
+        material = model.material(int(model.geom_matid[g])).name if model.geom_matid[g] >= 0 else ""
+        meshes.append((model.mesh(mesh).name, material, model.geom_rgba[g].copy(), int(model.geom_group[g]),
+                       (data.geom_xpos[g] - origin) @ to_root.T - offset, authored_quat))
+
+    spec.delete(spec.body(_SCAFFOLD_TOP))  # with its whole subtree
+    # The new body sits at the root frame; express that frame in the pelvis (myo-sim's pelvis uses OpenSim's axes).
+    to_pelvis = data.xmat[pelvis].reshape(3, 3).T @ data.xmat[root].reshape(3, 3)
+    torso = spec.body("pelvis").add_body(
+        name=TORSO_BODY, pos=data.xmat[pelvis].reshape(3, 3).T @ (origin - data.xpos[pelvis]),
+        quat=_mat2quat(to_pelvis))
+    torso.explicitinertial = True
+    torso.mass = mass
+    torso.ipos = com
+    torso.fullinertia = [inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2], inertia[1, 2]]
+    for mesh, material, rgba, group, pos, quat in meshes:
+        torso.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh, material=material, rgba=rgba, group=group,
+                       pos=pos, quat=quat, contype=0, conaffinity=0, mass=0.0)
+
+
+def _is_in_subtree(model: mujoco.MjModel, body: int, top: int) -> bool:
+    while body > 0:
+        if body == top:
+            return True
+        body = int(model.body_parentid[body])
+    return False
+
+
+def _mat2quat(mat: np.ndarray) -> np.ndarray:
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(mat).ravel())
+    return quat
+
+
+def _conj(quat: np.ndarray) -> np.ndarray:
+    return np.array([quat[0], -quat[1], -quat[2], -quat[3]])
 
 
 def _keep_only_foot_floor_contacts(spec: mujoco.MjSpec) -> None:
-    """Only the sole geoms (calcaneus and toes) touch the floor; nothing touches itself.
+    """Only the sole geoms (calcaneus and toes) touch the floor; the legs touch each other only through myo-sim's
+    explicit pairs.
 
-    myo-sim lets every bone's collision geom touch the floor and adds 26 leg-against-leg pairs. An episode ends when
-    the pelvis drops below 0.6 m, before knees, hips or the torso reach the floor, and the legs-crossing pairs cost
-    ~7 % of the step (5 of them go through the general convex solver); the collision geoms stay as
-    non-colliding, massless display geoms (group 4).
+    myo-sim lets every bone's collision geom (pelvis, femurs, tibias, thorax, head) touch the floor. An episode ends
+    when the pelvis drops below 0.6 m, before knees, hips or the torso reach the floor, so only the soles need to.
+    myo-sim's 26 leg-against-leg pairs (femur, tibia and foot geoms, frictionless) stay: they keep the legs from
+    passing through each other for ~2 % of the step time. Explicit pairs ignore contype/conaffinity, so the bone
+    geoms can be switched off here; they remain as massless display geoms (group 4).
     """
-    feet = {id(g) for name in FOOT_BODIES for g in spec.body(name).geoms}
-    for geom in spec.geoms:
-        if geom.name == FLOOR or id(geom) in feet:
+    for body in spec.bodies:
+        if body.name == "world":  # its only collision geom is the floor
             continue
-        geom.contype, geom.conaffinity = 0, 0
-    for name in FOOT_BODIES:
-        collides = [g for g in spec.body(name).geoms if g.contype or g.conaffinity]
-        if not collides:
-            raise RuntimeError(f"myo-sim's '{MYO_SIM_MODEL}' changed: foot body '{name}' has no collision geom")
-        for geom in collides:  # touch the floor (its conaffinity is 1), not each other
-            geom.contype, geom.conaffinity = 1, 0
+        is_foot = body.name in FOOT_BODIES
+        collides = [g for g in body.geoms if g.contype or g.conaffinity]
+        if is_foot and not collides:
+            raise RuntimeError(f"myo-sim's '{MYO_SIM_MODEL}' changed: foot body '{body.name}' has no collision geom")
+        for geom in collides:  # feet touch the floor (conaffinity 1) but not each other; the rest touches nothing
+            geom.contype, geom.conaffinity = (1, 0) if is_foot else (0, 0)
 
 
 def _delete_unused_sites(spec: mujoco.MjSpec, model: mujoco.MjModel) -> None:
-    """Delete sites no tendon passes through or wraps by: the passive torso keeps ~740 sites of its removed muscles,
-    and MuJoCo computes every site's pose at each step."""
+    """Delete the sites no tendon passes through or wraps by (markers, touch-sensor and attachment sites): MuJoCo
+    computes every site's pose at each step. Deleting one costs MuJoCo milliseconds, hence the torso merge first."""
     used = set()
     for w in range(model.nwrap):
-        kind = model.wrap_type[w]
+        kind = int(model.wrap_type[w])
         if kind == mujoco.mjtWrap.mjWRAP_SITE:
             used.add(model.site(int(model.wrap_objid[w])).name)
         elif kind in (mujoco.mjtWrap.mjWRAP_SPHERE, mujoco.mjtWrap.mjWRAP_CYLINDER) and model.wrap_prm[w] >= 0:
             used.add(model.site(int(model.wrap_prm[w])).name)  # side site choosing the wrapping side
+    if "" in used:
+        raise RuntimeError("a tendon passes through an unnamed site; cannot tell the sites apart by name")
     for site in list(spec.sites):
         if site.name not in used:
             spec.delete(site)
@@ -177,7 +272,7 @@ def standing_qpos(model: mujoco.MjModel, joints: Mapping[str, float] | None = No
     qpos = model.qpos0.copy()
     for name, value in joints.items():
         qpos[model.joint(name).qposadr[0]] = value
-    qpos = _satisfy_joint_couplings(model, qpos)
+    qpos = apply_joint_couplings(model, qpos)
     root = model.joint(0)
     if root.type[0] != mujoco.mjtJoint.mjJNT_FREE:
         raise ValueError("the model's first joint must be the free root joint")
@@ -187,19 +282,6 @@ def standing_qpos(model: mujoco.MjModel, joints: Mapping[str, float] | None = No
     data.qpos[:] = qpos
     mujoco.mj_kinematics(model, data)
     qpos[adr + 2] -= lowest_sole_point(model, data)
-    return qpos
-
-
-def _satisfy_joint_couplings(model: mujoco.MjModel, qpos: np.ndarray) -> np.ndarray:
-    """Set each joint-equality follower to the polynomial of its leader: q1 - q1_0 = sum_k c_k (q2 - q2_0)^k."""
-    qpos = qpos.copy()
-    for e in range(model.neq):
-        if model.eq_type[e] != mujoco.mjtEq.mjEQ_JOINT or model.eq_obj2id[e] < 0:
-            continue
-        a1 = model.jnt_qposadr[model.eq_obj1id[e]]
-        a2 = model.jnt_qposadr[model.eq_obj2id[e]]
-        x = qpos[a2] - model.qpos0[a2]
-        qpos[a1] = model.qpos0[a1] + sum(c * x**k for k, c in enumerate(model.eq_data[e][:5]))
     return qpos
 
 

@@ -56,6 +56,12 @@ def scale_spec(spec: mujoco.MjSpec, factor: float) -> None:
             _scale_attr(joint, "armature", f5)
         for cam in body.cameras:
             _scale_attr(cam, "pos", f)
+    for tendon in spec.tendons:
+        _scale_attr(tendon, "springlength", f)
+        if tendon.limited == mujoco.mjtLimited.mjLIMITED_TRUE or np.any(np.asarray(tendon.range)):
+            _scale_attr(tendon, "range", f)
+        tendon.stiffness = np.asarray(tendon.stiffness, dtype=float) * f  # force per length: f^2 / f
+        tendon.damping = np.asarray(tendon.damping, dtype=float) * f
     for mesh in spec.meshes:
         _scale_attr(mesh, "scale", f)
     for act in spec.actuators:

@@ -131,17 +131,24 @@ def filter_self_collisions(
     floor_geom = spec.geom(floor)
     if floor_geom is None:
         raise ValueError(f"model '{spec.modelname}' has no floor geom named '{floor}'")
-    left = {id(g) for b in _subtree_bodies(spec.body(left_leg_root)) for g in b.geoms}
-    right = {id(g) for b in _subtree_bodies(spec.body(right_leg_root)) for g in b.geoms}
-    for geom in spec.geoms:
-        if geom is floor_geom or (geom.contype == 0 and geom.conaffinity == 0):
-            continue
-        if id(geom) in left:
-            geom.contype, geom.conaffinity = 1 | 2, 4
-        elif id(geom) in right:
-            geom.contype, geom.conaffinity = 1 | 4, 2
-        else:
-            geom.contype, geom.conaffinity = 1, 0
+
+    def colliding(geom: mujoco.MjsGeom) -> bool:
+        return geom.name != floor and not (geom.contype == 0 and geom.conaffinity == 0)
+
+    # Set bits while walking the trees: MjSpec element wrappers are recreated on access, so they cannot be
+    # compared by identity afterwards.
+    for body in _subtree_bodies(spec.worldbody):
+        for geom in body.geoms:
+            if colliding(geom):
+                geom.contype, geom.conaffinity = 1, 0
+    for root, bits in ((left_leg_root, (1 | 2, 4)), (right_leg_root, (1 | 4, 2))):
+        leg = spec.body(root)
+        if leg is None:
+            raise ValueError(f"leg root body '{root}' not in model '{spec.modelname}'")
+        for body in _subtree_bodies(leg):
+            for geom in body.geoms:
+                if colliding(geom):
+                    geom.contype, geom.conaffinity = bits
     floor_geom.contype, floor_geom.conaffinity = 1, 1
 
 
