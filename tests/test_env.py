@@ -220,10 +220,14 @@ def test_missing_model_explains_how_to_get_it(monkeypatch, tmp_path):
     assert "internet" in str(err.value)
 
 
-def test_simulation_defaults_are_100hz_implicitfast(make_env):
-    env = make_env("UnitreeH1.walk")
-    assert env.model.opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    assert math.isclose(env.model.opt.timestep * env._n_substeps, 0.01)
+@pytest.mark.parametrize("name", BASE_TASKS)
+def test_simulation_defaults_are_100hz_and_the_embodiments_integrator(make_env, name):
+    env = make_env(name)
+    muscle = env.control == "muscle"  # explicit Euler at 2.5 ms (bench/timestep_study.py), others implicitfast 2 ms
+    integrator = mujoco.mjtIntegrator.mjINT_EULER if muscle else mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    assert env.model.opt.integrator == integrator
+    assert env.model.opt.timestep == (0.0025 if muscle else 0.002)
+    assert math.isclose(env.model.opt.timestep * env._n_substeps, 0.01) and math.isclose(env.info.dt, 0.01)
 
 
 @pytest.mark.parametrize("name, robot, entry, key", [("UnitreeH1.walk", "unitree_h1", "scene", "home"),

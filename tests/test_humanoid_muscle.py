@@ -93,7 +93,8 @@ def test_env_resets_and_steps_with_finite_observations(env):
 
 
 def test_random_excitation_does_not_diverge_at_the_default_timestep(env):
-    assert env.model.opt.timestep == 0.002 and env.model.opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    assert env.model.opt.timestep == 0.0025 and env._n_substeps == 4
+    assert env.model.opt.integrator == mujoco.mjtIntegrator.mjINT_EULER
     rng = np.random.default_rng(1)
     env.reset()
     falls = 0

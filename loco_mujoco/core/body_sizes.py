@@ -15,7 +15,6 @@ import mujoco
 import numpy as np
 
 from loco_mujoco.core import rewards as rw
-from loco_mujoco.core.loco_env import DEFAULT_INTEGRATOR
 from loco_mujoco.models.scaling import scale_spec
 
 SIZES: tuple[str, ...] = ("1", "2", "3", "4")
@@ -69,7 +68,7 @@ class BodySizesMixin:
         self._spec_size = size
         try:
             spec = self.build_spec(control=self.control, disable_arms=self.disable_arms)
-            spec.option.integrator = DEFAULT_INTEGRATOR
+            spec.option.integrator = self.INTEGRATOR
             model = spec.compile()
             return model, self.home_qpos(model)
         finally:

@@ -73,6 +73,9 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
     MAX_TILT: ClassVar[float] = math.pi / 2  # fallen when the root's z axis leans more than this (rad)
     GOAL_OBSERVATION: ClassVar[bool] = False
     HOME_KEY: ClassVar[str | int] = 0  # keyframe (name or index) that holds the home pose
+    TIMESTEP: ClassVar[float] = DEFAULT_TIMESTEP
+    N_SUBSTEPS: ClassVar[int] = DEFAULT_N_SUBSTEPS
+    INTEGRATOR: ClassVar[int] = DEFAULT_INTEGRATOR
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -89,8 +92,8 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         disable_arms: bool = True,
         reward_type: str = "task",
         reward_params: dict[str, Any] | None = None,
-        timestep: float = DEFAULT_TIMESTEP,
-        n_substeps: int = DEFAULT_N_SUBSTEPS,
+        timestep: float | None = None,
+        n_substeps: int | None = None,
         horizon: int = 1000,
         gamma: float = 0.99,
         seed: int | None = None,
@@ -111,7 +114,8 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
             disable_arms: remove arm (and head) joints and actuators; arms are welded at the home pose.
             reward_type: ``task`` (the task's own), ``target_velocity``, ``velocity_vector``, ``custom``
                 (``reward_params={"callback": f}``) or ``none``.
-            timestep, n_substeps: physics step and steps per control step (control runs at 100 Hz).
+            timestep, n_substeps: physics step and steps per control step (control runs at 100 Hz);
+                default: the embodiment's ``TIMESTEP`` and ``N_SUBSTEPS``.
             random_start: start each episode from a random dataset state; ``init_step_no``: from that frame.
             dataset_variant: ``permissive`` or ``noncommercial`` where a task has both (default: the first).
             dataset_path: a dataset file to use instead (ours, or the original LocoMuJoCo ``.npz`` format).
@@ -127,6 +131,8 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         control = control or self.DEFAULT_CONTROL
         self._validate_choice(f"control for {type(self).__name__}", control, self.CONTROLS)
         self._validate_choice("reward_type", reward_type, rw.REWARD_TYPES)
+        timestep = self.TIMESTEP if timestep is None else timestep
+        n_substeps = self.N_SUBSTEPS if n_substeps is None else n_substeps
         if not (timestep > 0 and int(n_substeps) >= 1):
             raise ValueError(f"timestep must be > 0 and n_substeps >= 1, got {timestep} and {n_substeps}")
 
@@ -140,7 +146,7 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         self._init_trajectories(random_start, init_step_no, dataset_variant, dataset_path)
 
         spec = self.build_spec(control=control, disable_arms=disable_arms)
-        spec.option.integrator = DEFAULT_INTEGRATOR
+        spec.option.integrator = self.INTEGRATOR
         model = spec.compile()
         joint_names = [model.joint(j).name for j in range(model.njnt)]
         observation_spec = [(f"q_{n}", n, ObservationType.JOINT_POS) for n in joint_names]
