@@ -3,6 +3,7 @@
     python experiments/build_datasets.py            # build all (cached ones are loaded)
     python experiments/build_datasets.py --list     # table: sources, licence, seconds, speed, quality
     python experiments/build_datasets.py --task UnitreeH1.walk --rebuild
+    python experiments/build_datasets.py --task HumanoidTorque4Ages.walk.2
 """
 
 from __future__ import annotations
@@ -14,19 +15,29 @@ from loco_mujoco.core.task_names import environment_class, list_tasks, parse_tas
 from loco_mujoco.datasets.registry import RECIPES, dataset_kind, load_dataset
 
 
-def real_datasets(only: str | None = None) -> list[tuple[type, str, str]]:
-    """(env class, task, variant) of every real dataset, or of one ``Env.task``."""
+def real_datasets(only: str | None = None) -> list[tuple[type, str, str | None, str]]:
+    """(env class, task, mode, variant) of every real dataset, or of one ``Env.task[.mode]``.
+
+    Body-size environments have one dataset per size; mode ``all`` joins them and is not listed.
+    """
     out = []
     names = [only] if only else sorted({".".join(t.split(".")[:2]) for t in list_tasks()})
     for name in names:
-        parsed = parse_task_name(name)
-        env_cls = environment_class(parsed.env)
+        env_cls = environment_class(name.split(".")[0])
+        parts = name.split(".")
+        if len(parts) < 2 or parts[1] not in env_cls.TASKS:
+            parse_task_name(name)  # raises with the valid choices
+        task = parts[1]
+        modes = [parts[2]] if len(parts) > 2 else [m for m in env_cls.MODES if m != "all"] or [None]
+        for mode in modes:
+            if mode is not None:
+                parse_task_name(f"{env_cls.__name__}.{task}.{mode}")
         try:
             kind = dataset_kind(env_cls)
         except Exception:  # noqa: BLE001 - environments without datasets are listed as such
             continue
-        for variant in RECIPES[kind].get(parsed.task, {}):
-            out.append((env_cls, parsed.task, variant))
+        for variant in RECIPES[kind].get(task, {}):
+            out.extend((env_cls, task, mode, variant) for mode in modes)
     return out
 
 
@@ -36,15 +47,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--task", help="only this Env.task")
     parser.add_argument("--rebuild", action="store_true", help="rebuild even if cached")
     args = parser.parse_args(argv)
-    for env_cls, task, variant in real_datasets(args.task):
-        ds = load_dataset(env_cls, task, variant, rebuild=args.rebuild, progress=not args.list)
+    for env_cls, task, mode, variant in real_datasets(args.task):
+        ds = load_dataset(env_cls, task, variant, rebuild=args.rebuild, progress=not args.list, mode=mode)
         meta = ds.metadata
+        label = ".".join([env_cls.__name__, task] + ([mode] if mode else []))
         if not args.list:
-            print(f"{env_cls.__name__}.{task} [{variant}]: {ds.n_trajectories} trajectories, {ds.duration:.1f} s")
+            print(f"{label} [{variant}]: {ds.n_trajectories} trajectories, {ds.duration:.1f} s")
             continue
         q = meta["quality"]
         nc = "NON-COMMERCIAL" if meta["noncommercial"] else "commercial use ok"
-        print(f"{env_cls.__name__}.{task} [{variant}]  {meta['seconds']:.1f} s at {meta['frequency']:.0f} Hz, "
+        print(f"{label} [{variant}]  {meta['seconds']:.1f} s at {meta['frequency']:.0f} Hz, "
               f"{ds.n_trajectories} trajectories, mean speed {meta['mean_forward_speed']:.2f} m/s")
         print(f"    licence: {', '.join(meta['licences'])} ({nc})")
         print(f"    sources: {', '.join(s['path'] for s in meta['sources'])}")

@@ -27,7 +27,7 @@ if TYPE_CHECKING:
     from loco_mujoco.core.loco_env import LocoEnv
 
 # Bump when the retargeting changes: cached datasets built by older code are then rebuilt.
-BUILD_VERSION = 4
+BUILD_VERSION = 5
 FREQUENCY = 100.0
 
 

@@ -208,8 +208,9 @@ def retarget_human(gait: HumanGait, model: mujoco.MjModel, spec: HumanoidRetarge
     feet = _Feet(model, tuple(spec.legs[s].foot_body for s in SIDES))
     robot_leg = _standing_root_height(model, feet, base_qpos)
     scale = robot_leg / gait.leg_length
+    # the flight margin is a length of the human body: it scales with the robot's legs like the motion does
     qpos, quality = _ground_and_odometry(qpos, feet, scale * gait.pelvis_pos[:, 2], gait.frequency,
-                                         spec.contact_height)
+                                         spec.contact_height, FLIGHT_MARGIN * scale)
     quality["joint_limit_clipped_fraction"] = clipped / max(total, 1)
     quality["leg_length_scale"] = scale
     qvel = velocities(model, qpos, gait.frequency)
@@ -248,7 +249,8 @@ def _standing_root_height(model: mujoco.MjModel, feet: _Feet, base_qpos: np.ndar
 
 
 def _ground_and_odometry(qpos: np.ndarray, feet: _Feet, source_root_z: np.ndarray, frequency: float,
-                         contact_height: float) -> tuple[np.ndarray, dict[str, float]]:
+                         contact_height: float, flight_margin: float = FLIGHT_MARGIN,
+                         ) -> tuple[np.ndarray, dict[str, float]]:
     """Set the root position from the legs: lowest foot on the ground, flight from the source, stance odometry."""
     dt = 1.0 / frequency
     qpos = qpos.copy()
@@ -260,7 +262,7 @@ def _ground_and_odometry(qpos: np.ndarray, feet: _Feet, source_root_z: np.ndarra
     excess = source_root_z - z_kin
     window = max(3, int(round(frequency)))
     envelope = percentile_filter(excess, 10, size=window, mode="nearest")
-    lift = np.maximum(0.0, excess - envelope - FLIGHT_MARGIN)
+    lift = np.maximum(0.0, excess - envelope - flight_margin)
     root_z = z_kin + lift
     ground = root_z[:, None] + foot_low  # each foot's height above the ground
     contact = ground < contact_height
