@@ -86,6 +86,14 @@ class LocoGymEnv(gym.Env):
     def play_trajectory_from_velocity(self, *args: Any, **kwargs: Any) -> dict[str, Any]:
         return self.unwrapped_loco.play_trajectory_from_velocity(*args, **kwargs)
 
+    def get_mask(self, groups: Any) -> np.ndarray:
+        """Boolean mask over the observation hiding ``groups`` (see ``LocoEnv.get_mask``)."""
+        return self.unwrapped_loco.get_mask(groups)
+
+    def get_kinematic_obs_mask(self) -> np.ndarray:
+        """Boolean mask of the joint positions and velocities in the observation."""
+        return self.unwrapped_loco.get_kinematic_obs_mask()
+
 
 def register_gymnasium() -> None:
     """Register the ``LocoMujoco`` id (idempotent)."""

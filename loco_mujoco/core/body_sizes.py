@@ -117,12 +117,12 @@ class BodySizesMixin:
         traj = int(self.dataset.trajectory_of_frame(frame))
         return str(self.dataset.metadata["sizes"][traj])
 
-    def _prepare_episode(self, frame: int | None) -> None:
-        super()._prepare_episode(frame)
+    def _select_body(self, frame: int | None) -> bool:
         if self.mode != "all":
-            return
+            return super()._select_body(frame)
         size = self._frame_size(frame) if frame is not None else SIZES[int(self._rng.integers(len(SIZES)))]
         self._apply_size(size)
+        return False  # the copied arrays include every derived constant of that size's compiled model
 
     def _extra_written(self) -> None:
         super()._extra_written()

@@ -11,7 +11,9 @@ import difflib
 import math
 import os
 import warnings
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, ClassVar
 
 import mujoco
@@ -27,6 +29,10 @@ from loco_mujoco.core.trajectory_api import TrajectoryMixin
 from loco_mujoco.models import spec_edit
 
 CONTROL_MODES = ("torque", "pd", "muscle")
+OBSERVATION_GROUPS = ("positions", "velocities", "foot_forces", "weight", "env_type", "goal")
+LOAD_BODY = "carried_load"
+LOAD_MASSES = (0.1, 1.0, 5.0, 10.0)  # kg, one drawn per episode unless weight_mass= fixes it
+LOAD_HALF_SIZE = (0.1, 0.15, 0.1)  # m: a box held in front of the chest
 
 # Simulation defaults, chosen by bench/timestep_study.py (see BENCHMARKS.md): implicit-in-velocity
 # integration at 2 ms is as stable as 1 ms with 10 substeps on every robot here and twice as fast.
@@ -53,6 +59,12 @@ def _sum_is_finite(x: np.ndarray) -> bool:
     return total == total and total not in (math.inf, -math.inf)
 
 
+def _box_inertia(mass: float) -> np.ndarray:
+    """Principal inertia of a solid box of ``mass`` with half sizes ``LOAD_HALF_SIZE``."""
+    x, y, z = LOAD_HALF_SIZE
+    return mass / 3.0 * np.array([y * y + z * z, x * x + z * z, x * x + y * y])
+
+
 class PhysicsDivergedWarning(RuntimeWarning):
     """The simulation produced non-finite values; the episode was terminated."""
 
@@ -73,6 +85,8 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
     MAX_TILT: ClassVar[float] = math.pi / 2  # fallen when the root's z axis leans more than this (rad)
     GOAL_OBSERVATION: ClassVar[bool] = False
     HOME_KEY: ClassVar[str | int] = 0  # keyframe (name or index) that holds the home pose
+    CARRY_BODY: ClassVar[str | None] = None  # body the load of the "carry" task is attached to
+    CARRY_OFFSET: ClassVar[tuple[float, float, float]] = (0.3, 0.0, 0.0)  # load position in that body's frame
     TIMESTEP: ClassVar[float] = DEFAULT_TIMESTEP
     N_SUBSTEPS: ClassVar[int] = DEFAULT_N_SUBSTEPS
     INTEGRATOR: ClassVar[int] = DEFAULT_INTEGRATOR
@@ -101,6 +115,9 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         init_step_no: int | None = None,
         dataset_variant: str | None = None,
         dataset_path: str | None = None,
+        domain_randomization_config: str | Path | Mapping | None = None,
+        weight_mass: float | None = None,
+        use_foot_forces: bool = False,
         **viewer_params: Any,
     ):
         """Build the model for ``task`` and compile it once.
@@ -119,6 +136,10 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
             random_start: start each episode from a random dataset state; ``init_step_no``: from that frame.
             dataset_variant: ``permissive`` or ``noncommercial`` where a task has both (default: the first).
             dataset_path: a dataset file to use instead (ours, or the original LocoMuJoCo ``.npz`` format).
+            domain_randomization_config: ``"default"`` (the embodiment's shipped config), a YAML path or a
+                mapping; parameters are sampled at every reset (see :mod:`loco_mujoco.core.randomization`).
+            weight_mass: carry tasks only: the load's mass (kg) instead of one drawn from ``LOAD_MASSES``.
+            use_foot_forces: append each foot's ground-reaction force (world frame, N) to the observation.
         """
         task = task if task is not None else next(iter(self.TASKS))
         self._validate_choice("task", task, tuple(self.TASKS))
@@ -142,6 +163,14 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         self.control = control
         self.disable_arms = disable_arms
         self.task = self.TASKS[task]
+        self.has_load = task == "carry" and self.CARRY_BODY is not None
+        if weight_mass is not None:
+            if not self.has_load:
+                raise ValueError(f"weight_mass is only for carry tasks; {type(self).__name__}.{task} carries nothing")
+            if not (isinstance(weight_mass, (int, float)) and math.isfinite(weight_mass) and weight_mass > 0):
+                raise ValueError(f"weight_mass must be a positive number of kg, got {weight_mass!r}")
+        self.weight_mass = None if weight_mass is None else float(weight_mass)
+        self.use_foot_forces = bool(use_foot_forces)
         self._rng = np.random.default_rng(seed)
         self._init_trajectories(random_start, init_step_no, dataset_variant, dataset_path)
 
@@ -161,6 +190,13 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         self._model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
 
         self._setup_observation(joint_names)
+        self._randomizer = None
+        self.randomization_enabled = domain_randomization_config is not None
+        if domain_randomization_config is not None:
+            from loco_mujoco.core.randomization import DomainRandomizer, load_config
+
+            config = load_config(domain_randomization_config, type(self))
+            self._randomizer = DomainRandomizer(config, self._model, never={"Bodies": (LOAD_BODY,)})
         self._setup_action()
         self._init_qpos = self.home_qpos(self._model)
         self.target_velocity = self.task.target_velocity
@@ -200,6 +236,13 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         spec_edit.fix_joints(spec, fixed, {j: float(self._home_by_joint[j][0]) for j in fixed})
         if self.LEG_ROOTS is not None:
             spec_edit.filter_self_collisions(spec, *self.LEG_ROOTS)
+        if self.has_load:
+            self._add_load(spec)
+        if self.use_foot_forces:
+            for foot in self.foot_bodies():
+                spec.add_sensor(name=f"foot_force_{foot}", type=mujoco.mjtSensor.mjSENS_CONTACT,
+                                objtype=mujoco.mjtObj.mjOBJ_XBODY, objname=foot, reftype=mujoco.mjtObj.mjOBJ_GEOM,
+                                refname="floor", intprm=[2, 3, 1])  # data: force; reduce: net force; 1 slot
         if control == "torque":
             spec_edit.to_torque_control(spec)
         else:
@@ -209,6 +252,27 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
     def load_spec(self) -> mujoco.MjSpec:
         """The unmodified robot model in a scene with a floor named ``floor``."""
         raise NotImplementedError
+
+    def foot_bodies(self) -> tuple[str, ...]:
+        """Bodies whose subtrees are the feet (for foot forces): those of the retargeting spec."""
+        spec = getattr(self, "RETARGET", None)
+        if spec is None:
+            raise ValueError(f"{type(self).__name__} does not declare its feet; use_foot_forces is unavailable")
+        if hasattr(spec, "legs"):
+            return tuple(spec.legs[side].foot_body for side in sorted(spec.legs))
+        return tuple(spec.feet)
+
+    def _add_load(self, spec: mujoco.MjSpec) -> None:
+        """A box of 1 kg (re-massed every episode) welded in front of ``CARRY_BODY``: the carried load."""
+        parent = spec.body(self.CARRY_BODY)
+        if parent is None:
+            raise ValueError(f"{type(self).__name__}.CARRY_BODY {self.CARRY_BODY!r} is not a body of the model")
+        load = parent.add_body(name=LOAD_BODY, pos=list(self.CARRY_OFFSET))
+        load.explicitinertial = True
+        load.mass = 1.0
+        load.inertia = _box_inertia(1.0)
+        load.add_geom(name=LOAD_BODY, type=mujoco.mjtGeom.mjGEOM_BOX, size=list(LOAD_HALF_SIZE),
+                      contype=0, conaffinity=0, rgba=[0.6, 0.45, 0.25, 1.0])
 
     def fixed_joints(self, spec: mujoco.MjSpec, disable_arms: bool) -> list[str]:
         """Joints removed from the model; by default the arm joints when arms are disabled."""
@@ -253,6 +317,15 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         self._n_qpos_obs = len(qpos_idx)
         n_joint_obs = len(qpos_idx) + len(qvel_idx)
         self._qpos_view, self._qvel_view = self._data.qpos, self._data.qvel  # fixed buffers: cache views
+        self._n_foot = 0
+        if self.use_foot_forces:
+            m_ = self._model
+            ids = [m_.sensor(f"foot_force_{f}").id for f in self.foot_bodies()]
+            self._foot_sensor_idx = np.concatenate([np.arange(m_.sensor_adr[i], m_.sensor_adr[i] + 3) for i in ids])
+            self._n_foot = len(self._foot_sensor_idx)
+            self.obs_helper.add_obs("foot_forces", self._n_foot)
+            n_joint_obs += self._n_foot
+            self._sensordata = self._data.sensordata
         extras = self.extra_observations()
         for name, dim in extras:
             self.obs_helper.add_obs(name, dim)
@@ -260,6 +333,7 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         self._extra = np.zeros(self._n_extra)  # goal, body-size code ...: written at reset, copied per step
         self._goal = self._extra[:3] if self.GOAL_OBSERVATION else np.zeros(3)
         self._obs_buffer_len = n_joint_obs + self._n_extra
+        self._extra_offset = n_joint_obs
 
         self._obs_idx = {k: np.asarray(v, dtype=np.intp) for k, v in self.obs_helper.obs_idx_map.items()}
         low = np.full(self._obs_buffer_len, -np.inf)
@@ -275,8 +349,8 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         self._vel_root_idx = self._obs_idx[f"dq_{spec_edit.ROOT_JOINT}"]
 
     def extra_observations(self) -> list[tuple[str, int]]:
-        """Named observation entries after the joint states, constant within an episode (e.g. the goal)."""
-        return [("goal_velocity", 3)] if self.GOAL_OBSERVATION else []
+        """Named observation entries after the joint states, constant within an episode (goal, load mass)."""
+        return ([("goal_velocity", 3)] if self.GOAL_OBSERVATION else []) + ([("weight", 1)] if self.has_load else [])
 
     def _setup_action(self) -> None:
         """Actions in [-1, 1] map linearly onto each actuator's ctrlrange (torque or joint target)."""
@@ -418,6 +492,9 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         obs[:n] = self._qpos_view[self._qpos_idx]
         m = n + len(self._qvel_idx)
         obs[n:m] = self._qvel_view[self._qvel_idx]
+        if self._n_foot:  # ground reaction on each foot: minus the force the foot exerts on the floor
+            np.negative(self._sensordata[self._foot_sensor_idx], out=obs[m:m + self._n_foot])
+            m += self._n_foot
         if self._n_extra:
             obs[m:] = self._extra
         return obs
@@ -426,20 +503,86 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         obs = np.asarray(obs, dtype=np.float64)
         if obs.shape != (self._obs_buffer_len,):
             raise ValueError(f"observation must have shape ({self._obs_buffer_len},), got {obs.shape}")
-        if not np.all(np.isfinite(obs)):
-            raise ValueError("observation to reset from contains NaN or inf")
         n = self._n_qpos_obs
+        n_state = n + len(self._qvel_idx)
+        if not np.all(np.isfinite(obs[:n_state])):
+            raise ValueError("the joint states of the observation to reset from contain NaN or inf")
         self._data.qpos[self._qpos_idx] = obs[:n]
-        self._data.qvel[self._qvel_idx] = obs[n : n + len(self._qvel_idx)]
-        if self._n_extra:
-            self._extra[:] = obs[n + len(self._qvel_idx) :]
+        self._data.qvel[self._qvel_idx] = obs[n:n_state]
+        if self._n_extra:  # foot forces are measured, not set; NaN extras (an unknown load) keep this episode's
+            extra = obs[n_state + self._n_foot :]
+            known = np.isfinite(extra)
+            self._extra[known] = extra[known]
             self._extra_written()
 
     def _extra_written(self) -> None:
         """Called when a reset observation set the extra entries; subclasses apply them (e.g. the body size)."""
 
     def _prepare_episode(self, frame: int | None) -> None:
-        """Called first at every reset with the dataset frame the episode starts from (or None)."""
+        """Called first at every reset with the dataset frame the episode starts from (or None): choose this
+        episode's body (size, load) and dynamics (randomization), all in the compiled model, in place."""
+        restored = self._randomizer is not None and self._randomizer.restore()
+        changed = self._select_body(frame) or restored
+        if self.has_load:
+            mass = self.weight_mass if self.weight_mass is not None else \
+                LOAD_MASSES[int(self._rng.integers(len(LOAD_MASSES)))]
+            self.set_load_mass(mass, update=False)
+            changed = True
+        if self._randomizer is not None and self.randomization_enabled:
+            self._randomizer.apply(self._rng, self._data)  # recomputes the derived constants itself
+        elif changed:
+            mujoco.mj_setConst(self._model, self._data)
+
+    def _select_body(self, frame: int | None) -> bool:
+        """Pick this episode's body before randomization; True if the model changed (e.g. a body size)."""
+        return False
+
+    def set_load_mass(self, mass: float, update: bool = True) -> None:
+        """Give the carried load ``mass`` kg (a box, inertia to match) and show it in the observation."""
+        b = self._model.body(LOAD_BODY).id
+        self._model.body_mass[b] = mass
+        self._model.body_inertia[b] = _box_inertia(mass)
+        self._extra[self._obs_idx["weight"] - self._extra_offset] = mass
+        self.current_load_mass = float(mass)
+        if update:
+            mujoco.mj_setConst(self._model, self._data)
+
+    # ---- masks ----------------------------------------------------------------------------------
+    def observation_groups(self) -> dict[str, np.ndarray]:
+        """Indices of each observation group this environment has (see ``OBSERVATION_GROUPS``)."""
+        names = list(self._obs_idx)
+        groups = {"positions": np.concatenate([self._obs_idx[k] for k in names if k.startswith("q_")]),
+                  "velocities": np.concatenate([self._obs_idx[k] for k in names if k.startswith("dq_")])}
+        for group, key in (("foot_forces", "foot_forces"), ("weight", "weight"), ("env_type", "env_type"),
+                           ("goal", "goal_velocity")):
+            if key in self._obs_idx:
+                groups[group] = self._obs_idx[key].copy()
+        return groups
+
+    def get_mask(self, groups: Iterable[str]) -> np.ndarray:
+        """Boolean mask over the observation that hides ``groups`` (False there, True elsewhere).
+
+        Groups: ``positions``, ``velocities``, ``foot_forces``, ``weight`` (carried load), ``env_type``
+        (body size), ``goal``, as far as this environment has them; e.g. ``obs[env.get_mask(["weight"])]``
+        is the partially observable task's observation.
+        """
+        if isinstance(groups, str):
+            groups = [groups]
+        available = self.observation_groups()
+        mask = np.ones(self._obs_buffer_len, dtype=bool)
+        for group in groups:
+            if group not in available:
+                known = "" if group in OBSERVATION_GROUPS else f" (groups are {', '.join(OBSERVATION_GROUPS)})"
+                raise ValueError(f"{type(self).__name__} has no observation group {group!r}{known}; "
+                                 f"this environment has: {', '.join(available)}")
+            mask[available[group]] = False
+        return mask
+
+    def get_kinematic_obs_mask(self) -> np.ndarray:
+        """Mask of the kinematic entries (joint positions and velocities): what a discriminator compares with
+        motion data, which has no forces, loads, sizes or goals."""
+        groups = self.observation_groups()
+        return self.get_mask([g for g in groups if g not in ("positions", "velocities")])
 
     def _reset_goal(self) -> None:
         """Embodiments with a goal in the observation choose it here (default: forward at target speed)."""

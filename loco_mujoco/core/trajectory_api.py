@@ -78,12 +78,19 @@ class TrajectoryMixin:
         frames = slice(None) if frames is None else frames
         qpos, qvel = self.dataset_states(frames)
         parts = [qpos[:, self._qpos_idx], qvel[:, self._qvel_idx]]
+        if self._n_foot:  # motion data has no forces: NaN, so that using them by mistake shows
+            parts.append(np.full((len(qpos), self._n_foot), np.nan))
         parts += self._dataset_extras(frames)
         return np.concatenate(parts, axis=1)
 
     def _dataset_extras(self, frames: np.ndarray | slice) -> list[np.ndarray]:
-        """The extra observation entries (see ``extra_observations``) of dataset frames."""
-        return [self._dataset_goals()[frames]] if self.GOAL_OBSERVATION else []
+        """The extra observation entries (see ``extra_observations``) of dataset frames; NaN where the motion
+        data cannot know them (the carried load)."""
+        n = len(np.arange(self.dataset.n_frames)[frames])
+        out = [self._dataset_goals()[frames]] if self.GOAL_OBSERVATION else []
+        if self.has_load:
+            out.append(np.full((n, 1), np.nan))
+        return out
 
     def _dataset_goals(self) -> np.ndarray:
         """Goal (cos, sin, speed) of every dataset frame from its root velocity averaged over 0.5 s."""

@@ -26,6 +26,8 @@ class Atlas(LocoEnv):
     LEG_ROOTS = ("l_uglut", "r_uglut")
     ROOT_HEIGHT_RANGE = (0.55, 1.4)  # pelvis height (m); home 0.93
     MAX_TILT = math.pi / 4
+    CARRY_BODY = "utorso"  # carry task: the load sits in front of the chest, welded to this body
+    CARRY_OFFSET = (0.3, 0.0, 0.15)
 
     def __init__(self, *args: Any, disable_back_joint: bool = True, **kwargs: Any):
         """``disable_back_joint``: weld the three back joints at the home pose (default, as upstream)."""

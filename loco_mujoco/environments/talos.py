@@ -22,6 +22,8 @@ class Talos(LocoEnv):
     LEG_ROOTS = ("leg_left_1_link", "leg_right_1_link")
     ROOT_HEIGHT_RANGE = (0.6, 1.5)  # base_link height (m); home 1.08
     MAX_TILT = math.pi / 4
+    CARRY_BODY = "torso_2_link"  # carry task: the load sits in front of the chest, welded to this body
+    CARRY_OFFSET = (0.3, 0.0, 0.0)
     _ALWAYS_FIXED_PREFIXES = ("gripper_", "head_")
 
     def load_spec(self) -> mujoco.MjSpec:

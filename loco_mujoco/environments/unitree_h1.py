@@ -25,6 +25,8 @@ class UnitreeH1(LocoEnv):
     LEG_ROOTS = ("left_hip_yaw_link", "right_hip_yaw_link")
     ROOT_HEIGHT_RANGE = (0.6, 1.5)  # pelvis height (m); home 0.98
     MAX_TILT = math.pi / 4
+    CARRY_BODY = "torso_link"  # carry task: the load sits in front of the chest, welded to this body
+    CARRY_OFFSET = (0.25, 0.0, 0.15)
 
     def load_spec(self) -> mujoco.MjSpec:
         return load_menagerie_spec("unitree_h1", "scene")

@@ -1,0 +1,36 @@
+"""Adversarial imitation-learning baselines (GAIL, VAIL, GAIfO) for loco_mujoco, on Mushroom-RL's ``Core``.
+
+Each algorithm lives in one module and is a Mushroom-RL ``Agent``; ``make_agent`` builds one by name from a
+plain config dict (what a launcher reads from YAML)::
+
+    import loco_mujoco as lm
+    from baselines import make_agent
+    from mushroom_rl.core import Core
+
+    env = lm.LocoEnv.make("UnitreeH1.walk")
+    agent = make_agent("vail", env, config={"std_0": 0.8}, seed=0)
+    Core(agent, env).learn(n_steps=10_000, n_steps_per_fit=agent.config.n_steps_per_fit, quiet=True)
+    torch.save(agent.state_dict(), "ckpt.pt")      # everything needed to resume exactly
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from baselines.gaifo.gaifo import GAIfO, GAIfOConfig
+from baselines.gail.gail import GAIL, GAILConfig
+from baselines.vail.vail import VAIL, VAILConfig
+
+ALGORITHMS = {"gail": GAIL, "vail": VAIL, "gaifo": GAIfO}
+
+
+def make_agent(algorithm: str, env: Any, config: dict[str, Any] | None = None, seed: int = 0, **kwargs: Any):
+    """Build the agent ``algorithm`` (``gail``, ``vail`` or ``gaifo``) for ``env``; unknown config keys raise."""
+    try:
+        cls = ALGORITHMS[algorithm.lower()]
+    except KeyError:
+        raise ValueError(f"unknown algorithm {algorithm!r}; valid: {', '.join(ALGORITHMS)}") from None
+    return cls.from_env(env, config=config, seed=seed, **kwargs)
+
+
+__all__ = ["ALGORITHMS", "GAIL", "GAILConfig", "GAIfO", "GAIfOConfig", "VAIL", "VAILConfig", "make_agent"]
