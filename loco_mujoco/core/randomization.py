@@ -260,6 +260,16 @@ class DomainRandomizer:
             self._grouped = {k: np.array(v, dtype=np.intp) for k, v in grouped.items()}
         return self._grouped
 
+    def _dofs_of(self, joints: np.ndarray) -> np.ndarray:
+        """The dof indices of ``joints`` (cached per joint set: computed once, used at every reset)."""
+        key = joints.tobytes()
+        cache = self.__dict__.setdefault("_dof_cache", {})
+        if key not in cache:
+            m = self.model
+            cache[key] = np.concatenate([np.arange(m.jnt_dofadr[j], m.jnt_dofadr[j] + _dof_count(m.jnt_type[j]))
+                                         for j in joints])
+        return cache[key]
+
     def apply(self, rng: np.random.Generator, data: mujoco.MjData) -> None:
         """Sample every planned parameter around the model's current (nominal) values and write it in place.
 
@@ -292,8 +302,7 @@ class DomainRandomizer:
             if param == "stiffness":
                 m.jnt_stiffness[ids] = values = np.maximum(dist.sample(m.jnt_stiffness[ids], rng), 0.0)
                 return values
-            dofs = np.concatenate([np.arange(m.jnt_dofadr[j], m.jnt_dofadr[j] + _dof_count(m.jnt_type[j]))
-                                   for j in ids])
+            dofs = self._dofs_of(ids)
             field = {"damping": m.dof_damping, "frictionloss": m.dof_frictionloss, "armature": m.dof_armature}[param]
             field[dofs] = values = np.maximum(dist.sample(field[dofs], rng), 0.0)
             return values
