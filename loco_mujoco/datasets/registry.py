@@ -22,6 +22,7 @@ from loco_mujoco.datasets.retarget import (
 )
 from loco_mujoco.datasets.sources.fetch import cache_dir
 from loco_mujoco.datasets.trajectory import TrajectoryDataset
+from loco_mujoco.rotations import axis_angle_quat, quat_mul
 
 if TYPE_CHECKING:
     from loco_mujoco.core.loco_env import LocoEnv
@@ -147,11 +148,7 @@ def _align_heading(traj: RetargetedMotion, seconds: float = 1.0) -> None:
     rot = np.array([[c, -s], [s, c]])
     traj.qpos[:, :2] = (traj.qpos[:, :2] - traj.qpos[0, :2]) @ rot.T
     traj.qvel[:, :2] = traj.qvel[:, :2] @ rot.T
-    half = np.array([np.cos(angle / 2), 0.0, 0.0, np.sin(angle / 2)])
-    w1, v1 = half[0], half[1:]
-    w2, v2 = traj.qpos[:, 3], traj.qpos[:, 4:7]
-    traj.qpos[:, 3] = w1 * w2 - v2 @ v1
-    traj.qpos[:, 4:7] = w1 * v2 + w2[:, None] * v1 + np.cross(v1, v2)
+    traj.qpos[:, 3:7] = quat_mul(axis_angle_quat([0.0, 0.0, 1.0], angle), traj.qpos[:, 3:7])
 
 
 def _retarget_env(env_cls: type[LocoEnv], task: str, mode: str | None) -> LocoEnv:

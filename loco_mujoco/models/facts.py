@@ -8,7 +8,6 @@ own models behave like the Menagerie ones (same observation layout, same dataset
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Mapping
 from pathlib import Path
@@ -19,6 +18,7 @@ import numpy as np
 import yaml
 
 from loco_mujoco.models.spec_edit import ROOT_JOINT
+from loco_mujoco.rotations import quat_mul, rotate
 
 FACTS_DIR_ENV = "LOCO_MUJOCO_ROBOT_FACTS"
 _SHARED_FACTS = Path(__file__).resolve().parents[2].parent / "shared" / "robot-facts"
@@ -99,18 +99,6 @@ def _validate(facts: Any, path: Path) -> None:
             raise FactsError(f"{path}: actuator {act['name']!r} drives unknown joint {act['joint']!r}")
 
 
-def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    out = np.zeros(4)
-    mujoco.mju_mulQuat(out, np.asarray(a, dtype=float), np.asarray(b, dtype=float))
-    return out
-
-
-def _rotate(quat: np.ndarray, vec: Any) -> np.ndarray:
-    out = np.zeros(3)
-    mujoco.mju_rotVecQuat(out, np.asarray(vec, dtype=float), np.asarray(quat, dtype=float))
-    return out
-
-
 def spec_from_facts(facts: Mapping[str, Any], model_name: str, rgba: tuple[float, float, float, float] = (
         0.6, 0.6, 0.65, 1.0)) -> mujoco.MjSpec:
     """An MjSpec of the robot in the facts, on a floor named ``floor``, with a free joint named ``root``.
@@ -137,15 +125,15 @@ def spec_from_facts(facts: Mapping[str, Any], model_name: str, rgba: tuple[float
         if fb["name"] == root_name:
             quat = np.array([1.0, 0.0, 0.0, 0.0])
         elif fb["parent"] == root_name:  # re-express in the root's Z-up frame
-            pos, quat = _rotate(root_rot, pos), _quat_mul(root_rot, quat)
+            pos, quat = rotate(root_rot, pos), quat_mul(root_rot, quat)
         frame_rot = root_rot if fb["name"] == root_name else np.array([1.0, 0.0, 0.0, 0.0])
         body = parent.add_body(name=fb["name"], pos=pos, quat=quat)
         bodies[fb["name"]] = body
         inertial = fb["inertial"]
         body.explicitinertial = True
         body.mass = float(inertial["mass"])
-        body.ipos = _rotate(frame_rot, inertial["pos"])
-        body.iquat = _quat_mul(frame_rot, inertial["quat"])
+        body.ipos = rotate(frame_rot, inertial["pos"])
+        body.iquat = quat_mul(frame_rot, inertial["quat"])
         body.inertia = np.asarray(inertial["diaginertia"], dtype=float)
         if fb["name"] == root_name:
             body.add_freejoint(name=ROOT_JOINT)
@@ -160,8 +148,8 @@ def spec_from_facts(facts: Mapping[str, Any], model_name: str, rgba: tuple[float
             size = np.zeros(3)
             size[: len(fg["size"])] = fg["size"]
             name = fg["name"] or f"{fb['name']}_geom{i}"
-            body.add_geom(name=name, type=_GEOM_TYPES[fg["type"]], size=size, pos=_rotate(frame_rot, fg["pos"]),
-                          quat=_quat_mul(frame_rot, fg["quat"]), friction=fg["friction"], contype=fg["contype"],
+            body.add_geom(name=name, type=_GEOM_TYPES[fg["type"]], size=size, pos=rotate(frame_rot, fg["pos"]),
+                          quat=quat_mul(frame_rot, fg["quat"]), friction=fg["friction"], contype=fg["contype"],
                           conaffinity=fg["conaffinity"], rgba=rgba)
     for fa in facts["actuators"]:
         act = spec.add_actuator(name=fa["name"], target=fa["joint"], trntype=mujoco.mjtTrn.mjTRN_JOINT)
@@ -190,10 +178,3 @@ def add_scene(spec: mujoco.MjSpec) -> None:
 def total_mass(facts: Mapping[str, Any]) -> float:
     """Sum of the body masses in the facts."""
     return float(sum(b["inertial"]["mass"] for b in facts["bodies"]))
-
-
-def joint_axis_angle_quat(axis: Any, angle: float) -> np.ndarray:
-    """Quaternion (w, x, y, z) of a rotation by ``angle`` about ``axis``."""
-    axis = np.asarray(axis, dtype=float)
-    axis = axis / np.linalg.norm(axis)
-    return np.concatenate([[math.cos(angle / 2)], math.sin(angle / 2) * axis])

@@ -23,6 +23,7 @@ import mujoco
 import numpy as np
 
 from loco_mujoco.models.couplings import apply_joint_couplings
+from loco_mujoco.rotations import quat_mul
 
 MYO_SIM_MODEL = "myolegs"  # myo-sim's registry name: passive torso scaffold + MyoLeg, with a free joint "root"
 ROOT_BODY = "root"  # myo-sim's "Full Body": a world-aligned frame at the pelvis origin holding the free joint
@@ -96,7 +97,7 @@ def _composed_spec() -> mujoco.MjSpec:
         # myo-sim's legs face -y; every other model here walks along +x: turn the body 90 deg about z under the
         # world-aligned root, so the free joint's quaternion stays identity when standing.
         legs = spec.body(ROOT_BODY).first_body()
-        legs.quat = _quat_mul(np.array([math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4)]),
+        legs.quat = quat_mul(np.array([math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4)]),
                               np.asarray(legs.quat, dtype=float))
         _keep_only_foot_floor_contacts(spec)
         model = spec.compile()
@@ -107,12 +108,6 @@ def _composed_spec() -> mujoco.MjSpec:
         raise RuntimeError("deleting unused sites removed tendons or muscles")
     spec.add_key(name=HOME_KEY, qpos=standing_qpos(pruned).tolist())
     return spec
-
-
-def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    out = np.zeros(4)
-    mujoco.mju_mulQuat(out, a, b)
-    return out
 
 
 def _replace_scene(spec: mujoco.MjSpec) -> None:

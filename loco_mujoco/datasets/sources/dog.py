@@ -10,9 +10,9 @@ import re
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from loco_mujoco.datasets.motion import Y_UP_TO_Z_UP, Motion, MotionFormatError, is_float
+from loco_mujoco.rotations import continuous, mat_to_quat
 
 N_KEYPOINTS = 27
 DOG_KEYPOINTS = {0: "pelvis", 3: "neck", 6: "left_shoulder", 10: "left_front_toe", 11: "right_shoulder",
@@ -55,12 +55,7 @@ def _trunk_quat(path: Path, kp: dict[str, np.ndarray]) -> np.ndarray:
         raise MotionFormatError(path, f"degenerate trunk frame (coincident keypoints) in row {bad[0] + 1}")
     x, y = _unit(x), _unit(y)
     mats = np.stack([x, y, np.cross(x, y)], axis=2)
-    q = Rotation.from_matrix(mats).as_quat()[:, [3, 0, 1, 2]]
-    q[0] *= 1 if q[0, 0] >= 0 else -1
-    for i in range(1, len(q)):
-        if np.dot(q[i], q[i - 1]) < 0:
-            q[i] *= -1
-    return q
+    return continuous(mat_to_quat(mats))
 
 
 def load_dog_keypoints(path: str | Path, frequency: float = 60.0) -> Motion:

@@ -25,6 +25,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from loco_mujoco.datasets.motion import Motion, MotionFormatError
+from loco_mujoco.rotations import axis_angle_quat, quat_mul
 
 FREQUENCY = 500.0
 ROOT_FAMILIES: dict[str, tuple[tuple[str, tuple[float, float, float]], ...]] = {
@@ -47,18 +48,6 @@ OLD_ROOT_OFFSET: dict[str, tuple[float, float, float]] = {
 ROBOT_ROOT_FAMILY = {"UnitreeH1": "pelvis", "UnitreeG1": "pelvis", "Talos": "pelvis", "Atlas": "pelvis",
                      "UnitreeA1": "trunk", "HumanoidTorque": "pelvis_opensim"}
 _META_KEYS = ("split_points", "goal_speed", "dir_arrow")
-
-
-def _axis_quat(axis: tuple[float, float, float], angle: np.ndarray) -> np.ndarray:
-    half = 0.5 * angle[:, None]
-    return np.concatenate([np.cos(half), np.sin(half) * np.asarray(axis, float)], axis=1)
-
-
-def _qmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    w1, x1, y1, z1 = a.T
-    w2, x2, y2, z2 = b.T
-    return np.stack([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2], axis=1)
 
 
 def _detect_family(path: Path, q_names: list[str]) -> str:
@@ -112,7 +101,7 @@ def load_loco_npz(path: str | Path, root_offset: tuple[float, float, float] = (0
     root_pos = sum(q[j][:, None] * np.asarray(ax, float) for j, ax in chain[:3]) + np.asarray(root_offset, float)
     quat = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
     for j, ax in chain[3:]:
-        quat = _qmul(quat, _axis_quat(ax, q[j]))
+        quat = quat_mul(quat, axis_angle_quat(ax, q[j]))
     frequency = float(arrays.pop("frequency")) if "frequency" in arrays else FREQUENCY
     meta = {"format": "loco-mujoco-npz", "root_family": family, "root_joint_names": root_names,
             "root_offset": tuple(float(v) for v in root_offset), "frequency": frequency,

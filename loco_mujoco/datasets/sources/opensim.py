@@ -20,22 +20,12 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from loco_mujoco.datasets.motion import Y_UP_TO_Z_UP, Motion, MotionFormatError, is_float
+from loco_mujoco.rotations import continuous, mat_to_quat
 
 PELVIS = ("pelvis_tx", "pelvis_ty", "pelvis_tz", "pelvis_tilt", "pelvis_list", "pelvis_rotation")
 _TRANSLATION = re.compile(r"(_t[xyz]$)|translation")
 _UNITS_TO_M = {"mm": 1e-3, "cm": 1e-2, "m": 1.0, "meters": 1.0}
 _PELVIS_MARKERS = ("R.ASIS", "L.ASIS", "V.Sacral")
-
-
-def _matrix_to_wxyz(mats: np.ndarray) -> np.ndarray:
-    """Unit quaternions (w, x, y, z) of rotation matrices, sign-continuous over frames with w >= 0 first."""
-    q = Rotation.from_matrix(mats).as_quat()[:, [3, 0, 1, 2]]
-    if q[0, 0] < 0:
-        q[0] *= -1
-    for i in range(1, len(q)):
-        if np.dot(q[i], q[i - 1]) < 0:
-            q[i] *= -1
-    return q
 
 
 def _read_lines(path: Path) -> list[str]:
@@ -160,7 +150,7 @@ def load_opensim(path: str | Path) -> Motion:
     root_pos = np.stack([pelvis["pelvis_tx"], pelvis["pelvis_ty"], pelvis["pelvis_tz"]], axis=1) @ Y_UP_TO_Z_UP.T
     r_osim = Rotation.from_euler("ZXY", np.stack([pelvis["pelvis_tilt"], pelvis["pelvis_list"],
                                                   pelvis["pelvis_rotation"]], axis=1)).as_matrix()
-    root_quat = _matrix_to_wxyz(Y_UP_TO_Z_UP @ r_osim @ Y_UP_TO_Z_UP.T)
+    root_quat = continuous(mat_to_quat(Y_UP_TO_Z_UP @ r_osim @ Y_UP_TO_Z_UP.T))
     names = tuple(coords)
     meta = {"format": f"opensim-{path.suffix.lstrip('.').lower()}", "in_degrees": degrees, "pelvis": pelvis,
             "skipped_columns": skipped, "markers": sorted(markers)}
