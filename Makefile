@@ -25,7 +25,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 test: install
-	$(PY) -m ruff check loco_mujoco tests bench experiments
+	$(PY) -m ruff check loco_mujoco baselines tests bench experiments
 	$(PY) -m pytest -q
 
 demo: install
@@ -35,7 +35,7 @@ bench: install
 	$(PY) bench/env_throughput.py
 
 lint: install
-	$(PY) -m ruff check loco_mujoco tests bench experiments
+	$(PY) -m ruff check loco_mujoco baselines tests bench experiments
 
 clean:
 	rm -rf $(VENV) .pytest_cache .ruff_cache *.egg-info

@@ -17,6 +17,9 @@ from __future__ import annotations
 
 from typing import Any
 
+from loco_mujoco import _compat  # noqa: F401  (patches mushroom-rl for our torch / numpy before first use)
+
+# isort: split
 from baselines.gaifo.gaifo import GAIfO, GAIfOConfig
 from baselines.gail.gail import GAIL, GAILConfig
 from baselines.vail.vail import VAIL, VAILConfig

@@ -5,8 +5,9 @@ the surrogate gradient ``g``, the natural direction ``F^-1 g`` by conjugate grad
 ``F + cg_damping * I``, a step scaled to ``max_kl``, a backtracking line search that accepts the first step
 with ``KL <= 1.5 max_kl`` and no loss of surrogate, then the critic regression on the GAE targets.
 
-Where Mushroom's version spends its time (88% in Fisher-vector products with the reference settings, 25 CG
-iterations), and what changes here:
+Where Mushroom's version spends its time (reference settings, 25 CG iterations: Fisher-vector products take
+87% of its fit and 57% of the whole VAIL loop on UnitreeH1.walk, see bench/training_throughput.py), and what
+changes here:
 
 1. **The Fisher is built once per fit.** Mushroom recomputes the policy forward pass, the KL and its
    gradient (``create_graph=True``) for every product, i.e. 26 times per fit. Here the operator
@@ -15,10 +16,10 @@ iterations), and what changes here:
    * ``fisher="analytic"`` (default for :class:`~baselines.common.policy.GaussianPolicy`): for a Gaussian
      with a state-independent log-std, the Hessian of ``mean KL(pi_old || pi)`` at ``theta_old`` is
      ``J^T diag(1/sigma^2) J / N`` on the mean-network weights (J: Jacobian of the mean) and ``2 I`` on the
-     log-std, with no cross terms. ``J v`` (forward mode) and ``J^T u`` (reverse mode) are written out for the
-     MLP's ``Linear`` / activation layers using the activations stored once per fit, so a product costs
-     about four forward passes and no autograd graph.
-   * ``fisher="autograd"`` (any ``TorchPolicy``): the KL gradient graph is built once with
+     log-std, with no cross terms. ``J v`` and ``J^T u`` are written out for the MLP's ``Linear`` /
+     activation layers from quantities computed once per fit (each layer's input and the Jacobian of the
+     mean w.r.t. its pre-activation), so a product costs about two forward passes and no autograd graph.
+   * ``fisher="autograd"`` (any mean network): the KL gradient graph is built once with
      ``create_graph=True`` and each product is a single ``grad(g_kl . v)`` through that retained graph.
 
    Both equal Mushroom's double-backward product (tested to float32 round-off).
@@ -28,8 +29,20 @@ iterations), and what changes here:
    surrogate graph come from one pass (at ``theta_old`` they coincide); each line-search trial evaluates the
    surrogate and the KL from a single no-grad pass; the critic is evaluated on the states plus the next
    states that end a segment (every other next state is the following state) instead of on both arrays.
-4. **Per-step sampling** lives in the policy (numpy forward, see :mod:`baselines.common.policy`).
-5. **Threads**: ``n_threads`` sets ``torch.set_num_threads`` (see :func:`default_num_threads`).
+4. **The critic regression overlaps the next rollout.** The critic is next needed by the following fit's
+   GAE, so its minibatch epochs run in a background thread (one torch thread) while ``Core`` steps the
+   environment on the other core; ``synchronize()`` waits for it and is called before anything reads or
+   changes the critic or the shared standardizer (start of the next fit, ``state_dict``, ``stop``). The
+   minibatch orders are drawn before the thread starts, so the results do not depend on timing.
+5. **Per-step sampling** lives in the policy (numpy forward, see :mod:`baselines.common.policy`).
+6. **Threads**: ``n_threads`` sets ``torch.set_num_threads`` for the policy update
+   (see :func:`default_num_threads`).
+
+One difference from Mushroom-RL 1.10.2 beyond round-off: on CPU its ``_conjugate_gradient`` takes ``p`` and
+``r`` as two numpy views of the same gradient buffer (``b.detach().cpu().numpy()`` twice), so ``r -= v * z``
+also changes ``p`` and the first direction update becomes ``(1 + mu) r`` instead of ``r + mu p``; the
+iterates then lose conjugacy. This class runs textbook CG; with that aliasing removed, a fit on the whole
+batch moves the policy as Mushroom's does (tests/test_baselines.py).
 
 Randomness (Fisher subsample, critic minibatch order) comes from the learner's own seeded generator;
 ``state_dict`` / ``load_state_dict`` cover the policy, critic, critic optimiser, generator and iteration.
@@ -39,6 +52,7 @@ from __future__ import annotations
 
 import math
 import os
+import threading
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -101,10 +115,14 @@ def _flat(tensors: Sequence[torch.Tensor]) -> torch.Tensor:
 class FastTRPO(TRPO):
     """Mushroom's ``TRPO`` with the Fisher built once per fit, on a subsample; same constructor plus:
 
+    The policy must be a Gaussian with a state-independent log-std exposing ``mean_t(obs)`` and ``log_std``
+    (:class:`~baselines.common.policy.GaussianPolicy`), besides the ``TorchPolicy`` interface.
+
     Args:
         fisher_fraction: fraction of the batch on which the Fisher is estimated (1.0: the whole batch).
         fisher: ``"analytic"``, ``"autograd"`` or ``"auto"`` (analytic when the policy supports it).
         n_threads: ``torch.set_num_threads`` value (process-wide); None leaves torch's setting alone.
+        overlap_critic: fit the critic in a background thread that overlaps the next rollout.
         seed: seed of the generator for the Fisher subsample and the critic's minibatch order.
     """
 
@@ -112,7 +130,7 @@ class FastTRPO(TRPO):
                  max_kl: float = 5e-3, lam: float = 0.97, n_epochs_line_search: int = 10, n_epochs_cg: int = 25,
                  cg_damping: float = 1e-2, cg_residual_tol: float = 1e-10,
                  critic_fit_params: dict[str, Any] | None = None, fisher_fraction: float = 0.2,
-                 fisher: str = "auto", n_threads: int | None = None, seed: int = 0):
+                 fisher: str = "auto", n_threads: int | None = None, overlap_critic: bool = True, seed: int = 0):
         super().__init__(mdp_info, policy, critic_params, ent_coeff, max_kl, lam, n_epochs_line_search, n_epochs_cg,
                          cg_damping, cg_residual_tol, critic_fit_params)
         unknown = set(self._critic_fit_params) - {"n_epochs"}
@@ -120,6 +138,9 @@ class FastTRPO(TRPO):
             raise ValueError(f"FastTRPO critic_fit_params supports only n_epochs, got {sorted(unknown)}")
         if not 0.0 < fisher_fraction <= 1.0:
             raise ValueError(f"fisher_fraction must be in (0, 1], got {fisher_fraction}")
+        if not (hasattr(policy, "mean_t") and isinstance(getattr(policy, "log_std", None), nn.Parameter)):
+            raise TypeError(f"FastTRPO needs a GaussianPolicy-like policy (mean_t, log_std), "
+                            f"got {type(policy).__name__}")
         if fisher == "auto":
             fisher = "analytic" if supports_analytic_fisher(policy) else "autograd"
         if fisher not in ("analytic", "autograd"):
@@ -131,6 +152,8 @@ class FastTRPO(TRPO):
         self._rng = np.random.default_rng(seed)
         if n_threads is not None:
             torch.set_num_threads(int(n_threads))
+        self._overlap_critic = bool(overlap_critic)
+        self._critic_job: _BackgroundJob | None = None
         self.last_stats: dict[str, float] = {}
 
     @property
@@ -147,7 +170,12 @@ class FastTRPO(TRPO):
 
     def fit_arrays(self, state: np.ndarray, action: np.ndarray, reward: np.ndarray, next_state: np.ndarray,
                    absorbing: np.ndarray, last: np.ndarray) -> dict[str, float]:
-        """One TRPO iteration on a batch of transitions in time order; returns its statistics."""
+        """One TRPO iteration on a batch of transitions in time order; returns its statistics.
+
+        With ``overlap_critic`` the returned ``critic_loss`` is NaN: the critic is still training; it is filled
+        into ``last_stats`` by :meth:`synchronize`.
+        """
+        self.synchronize()
         x = np.ascontiguousarray(state, dtype=np.float32)
         xn = np.ascontiguousarray(next_state, dtype=np.float32)
         obs, act = torch.from_numpy(x), torch.from_numpy(np.ascontiguousarray(action, dtype=np.float32))
@@ -165,7 +193,7 @@ class FastTRPO(TRPO):
         old_mean, old_log_std = mean.detach(), log_std.detach().clone()
         log_prob = gaussian_log_prob(act, mean, log_std)
         old_log_prob = log_prob.detach()
-        loss = self._surrogate(log_prob, old_log_prob, adv, log_std)
+        loss = self._surrogate(log_prob, old_log_prob, adv)
         prev_loss = loss.item()
         g = _flat(torch.autograd.grad(loss, params))
 
@@ -177,17 +205,31 @@ class FastTRPO(TRPO):
         n_tried, kl, new_loss = self._line_search_t(obs, act, adv, old_log_prob, old_mean, old_log_std, prev_loss,
                                                     stepdir, fvp)
 
-        # 5. Critic regression on the GAE targets.
-        critic_loss = self._fit_critic(x, v_target)
-
         self._iter += 1
         self.last_stats = {"surrogate": prev_loss, "surrogate_new": new_loss, "kl": kl, "line_search_steps": n_tried,
-                           "critic_loss": critic_loss, "entropy": float(self.policy.entropy_t().item()),
+                           "critic_loss": math.nan, "entropy": float(self.policy.entropy_t().item()),
                            "v_target_mean": float(np.mean(v_target))}
+
+        # 5. Critic regression on the GAE targets (in the background: the next rollout does not need it).
+        n_epochs = self._critic_fit_params.get("n_epochs", 1)
+        orders = [self._rng.permutation(len(x)) for _ in range(n_epochs)]
+        if self._overlap_critic:
+            self._critic_job = _BackgroundJob(self._fit_critic, x.copy(), v_target, orders)  # x may be the caller's
+        else:
+            self.last_stats["critic_loss"] = self._fit_critic(x, v_target, orders)
         return self.last_stats
 
-    def _surrogate(self, log_prob: torch.Tensor, old_log_prob: torch.Tensor, adv: torch.Tensor,
-                   log_std: torch.Tensor) -> torch.Tensor:
+    def synchronize(self) -> None:
+        """Wait for the background critic fit (re-raising its error) and record its loss."""
+        job, self._critic_job = self._critic_job, None
+        if job is not None:
+            self.last_stats["critic_loss"] = job.result()
+
+    def stop(self) -> None:
+        """Called by ``Core`` at the end of ``learn`` / ``evaluate``: no critic fit outlives it."""
+        self.synchronize()
+
+    def _surrogate(self, log_prob: torch.Tensor, old_log_prob: torch.Tensor, adv: torch.Tensor) -> torch.Tensor:
         """``mean(ratio * adv) + ent_coeff * entropy``, maximised (Mushroom's ``_compute_loss``)."""
         ratio = torch.exp(log_prob - old_log_prob)
         entropy = self.policy.entropy_t() if self._ent_coeff() != 0 else 0.0
@@ -253,12 +295,20 @@ class FastTRPO(TRPO):
         return fvp
 
     def _analytic_fisher(self, obs: torch.Tensor) -> FisherOperator:
-        """``F = J^T diag(exp(-2 log_std)) J / N`` on the mean network, ``2 I`` on ``log_std``."""
+        """``F = J^T diag(exp(-2 log_std)) J / N`` on the mean network, ``2 I`` on ``log_std``.
+
+        With ``pre_i = W_i h_i + b_i`` the pre-activation of layer ``i`` and ``B_i = d mean / d pre_i`` (per
+        sample, ``act_dim x n_i``), the mean moves along ``v = (V_i, c_i)_i`` by ``J v = sum_i B_i (V_i h_i + c_i)``
+        and ``J^T u`` has blocks ``(B_i^T u) h_i^T`` and ``B_i^T u``. The inputs ``h_i`` and the ``B_i`` are
+        computed once per fit; a product then costs two matrix products per layer (``V_i h_i`` and
+        ``(B_i^T u)^T h_i``) and a few per-sample contractions with ``B_i``.
+        """
         policy = self.policy
         modules = list(policy.mean_net)
         linears, activations = modules[0::2], modules[1::2]
-        inputs: list[torch.Tensor] = []  # input of each Linear layer
-        slopes: list[torch.Tensor | None] = []  # activation derivative at each layer's pre-activation
+        n_layers, n = len(linears), obs.shape[0]
+        inputs: list[torch.Tensor] = []  # h_i, the input of each Linear layer
+        slopes: list[torch.Tensor | None] = []  # activation derivative at each pre-activation (None: identity)
         with torch.no_grad():
             h = obs.float()
             if policy.standardizer is not None:
@@ -273,30 +323,37 @@ class FastTRPO(TRPO):
                     slopes.append(1.0 - h * h)
                 else:
                     slopes.append(None)
-            precision = torch.exp(-2.0 * policy.log_std.detach()) / obs.shape[0]
+            # B_i for the hidden layers, from the output down: B_i = (B_{i+1} W_{i+1}) * slope_i.
+            out_slope = slopes[-1]
+            jacobians: list[torch.Tensor] = [torch.empty(0)] * (n_layers - 1)
+            b_w = linears[-1].weight[None] if out_slope is None else out_slope[:, :, None] * linears[-1].weight
+            for i in range(n_layers - 2, -1, -1):
+                jac = b_w.expand(n, -1, -1) if slopes[i] is None else b_w * slopes[i][:, None, :]
+                jacobians[i] = jac.contiguous()
+                if i > 0:
+                    b_w = torch.matmul(jacobians[i], linears[i].weight)
+            precision = torch.exp(-2.0 * policy.log_std.detach()) / n
         sizes = [p.numel() for p in policy.parameters()]
 
         def fvp(v: torch.Tensor) -> torch.Tensor:
             with torch.no_grad():
                 pieces = torch.split(v, sizes)  # weight_0, bias_0, weight_1, bias_1, ..., log_std
-                # Forward mode: tangent = J v, the change of the mean action along v.
-                tangent = None
-                for i, linear in enumerate(linears):
-                    d_pre = torch.addmm(pieces[2 * i + 1], inputs[i], pieces[2 * i].view_as(linear.weight).t())
-                    if tangent is not None:
-                        d_pre.addmm_(tangent, linear.weight.t())
-                    tangent = d_pre if slopes[i] is None else d_pre * slopes[i]
-                # Reverse mode: J^T (diag(precision) J v).
-                delta = tangent * precision
-                out: list[torch.Tensor] = [pieces[-1]] * len(sizes)
-                for i in range(len(linears) - 1, -1, -1):
-                    out[2 * i] = torch.mm(delta.t(), inputs[i]).reshape(-1)
-                    out[2 * i + 1] = delta.sum(dim=0)
-                    if i > 0:
-                        delta = torch.mm(delta, linears[i].weight)
-                        if slopes[i - 1] is not None:
-                            delta = delta * slopes[i - 1]
-                out[-1] = 2.0 * pieces[-1]
+                # J v: the change of the mean action along v.
+                z = [torch.addmm(pieces[2 * i + 1], inputs[i], pieces[2 * i].view_as(linears[i].weight).t())
+                     for i in range(n_layers)]
+                d_mean = z[-1] if out_slope is None else z[-1] * out_slope
+                for i in range(n_layers - 1):
+                    d_mean = d_mean + (jacobians[i] * z[i][:, None, :]).sum(dim=-1)
+                # J^T (diag(precision) J v).
+                u = d_mean * precision
+                out: list[torch.Tensor] = []
+                for i in range(n_layers):
+                    if i < n_layers - 1:
+                        delta = torch.bmm(u[:, None, :], jacobians[i])[:, 0]
+                    else:
+                        delta = u if out_slope is None else u * out_slope
+                    out += [torch.mm(delta.t(), inputs[i]).reshape(-1), delta.sum(dim=0)]
+                out.append(2.0 * pieces[-1])
                 return torch.cat(out)
 
         return fvp
@@ -335,7 +392,7 @@ class FastTRPO(TRPO):
             with torch.no_grad():
                 mean = self.policy.mean_t(obs)
                 log_std = self.policy.log_std
-                new_loss = self._surrogate(gaussian_log_prob(act, mean, log_std), old_log_prob, adv, log_std).item()
+                new_loss = self._surrogate(gaussian_log_prob(act, mean, log_std), old_log_prob, adv).item()
                 kl = gaussian_kl(old_mean, old_log_std, mean, log_std).item()
             if kl <= max_kl * 1.5 and new_loss - prev_loss >= 0:
                 return trial, kl, new_loss
@@ -344,15 +401,15 @@ class FastTRPO(TRPO):
         return self._n_epochs_line_search(), 0.0, prev_loss
 
     # ---- critic -----------------------------------------------------------------------------------------
-    def _fit_critic(self, x: np.ndarray, v_target: np.ndarray) -> float:
-        """``n_epochs`` passes of shuffled minibatches (Mushroom's ``TorchApproximator.fit``); mean last-epoch loss."""
+    def _fit_critic(self, x: np.ndarray, v_target: np.ndarray, orders: list[np.ndarray]) -> float:
+        """One pass of shuffled minibatches per order (Mushroom's ``TorchApproximator.fit``); last pass's mean loss."""
         net, optimizer, loss_fn = self.critic, self.critic_optimizer, self._V.model._loss or F.mse_loss
         n = len(x)
         batch_size = self._V.model._batch_size or n
         inputs, targets = torch.from_numpy(x), torch.from_numpy(v_target.reshape(n, 1))
         losses: list[float] = []
-        for _ in range(self._critic_fit_params.get("n_epochs", 1)):
-            order = torch.from_numpy(self._rng.permutation(n))
+        for epoch_order in orders:
+            order = torch.from_numpy(epoch_order)
             losses = []
             for start in range(0, n, batch_size):
                 idx = order[start:start + batch_size]
@@ -366,13 +423,39 @@ class FastTRPO(TRPO):
     # ---- checkpoints ------------------------------------------------------------------------------------
     def state_dict(self) -> dict[str, Any]:
         """Policy, critic, critic optimiser, generator and iteration (shared standardizers: the agent's)."""
+        self.synchronize()
         return {"policy": self.policy.state_dict(), "critic": self.critic.state_dict(),
                 "critic_optimizer": self.critic_optimizer.state_dict(), "iter": int(self._iter),
                 "rng": self._rng.bit_generator.state}
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.synchronize()
         self.policy.load_state_dict(state["policy"])
         self.critic.load_state_dict(state["critic"])
         self.critic_optimizer.load_state_dict(state["critic_optimizer"])
         self._iter = int(state["iter"])
         self._rng.bit_generator.state = state["rng"]
+
+
+class _BackgroundJob(threading.Thread):
+    """``fn(*args)`` in a daemon thread with one torch thread (the other core steps the environment)."""
+
+    def __init__(self, fn: Callable[..., float], *args: Any):
+        super().__init__(daemon=True, name="critic-fit")
+        self._fn, self._args = fn, args
+        self._value: float = math.nan
+        self._error: BaseException | None = None
+        self.start()
+
+    def run(self) -> None:
+        torch.set_num_threads(1)  # per thread: the main thread keeps its own setting
+        try:
+            self._value = self._fn(*self._args)
+        except BaseException as err:  # re-raised in the main thread by result()
+            self._error = err
+
+    def result(self) -> float:
+        self.join()
+        if self._error is not None:
+            raise self._error
+        return self._value

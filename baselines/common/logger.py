@@ -7,7 +7,6 @@ keys the header lacks, the file is rewritten once with the wider header.
 from __future__ import annotations
 
 import csv
-import math
 from pathlib import Path
 from typing import Any
 
@@ -33,7 +32,7 @@ class CSVLogger:
                 self._writer = SummaryWriter(log_dir=str(self.directory / "tensorboard"))
 
     def log(self, step: int, **scalars: Any) -> None:
-        row = {"step": int(step), **{k: _scalar(v) for k, v in scalars.items()}}
+        row = {"step": int(step), **{k: v.item() if hasattr(v, "item") else v for k, v in scalars.items()}}
         new_fields = [k for k in row if k not in self.fields]
         if new_fields:
             self._widen(self.fields + new_fields if self.fields else list(row))
@@ -59,10 +58,3 @@ class CSVLogger:
         if self._writer is not None:
             self._writer.close()
 
-
-def _scalar(value: Any) -> Any:
-    if hasattr(value, "item"):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return repr(value)
-    return value
