@@ -48,9 +48,7 @@ class BodySizesMixin:
             self._setup_all_sizes()
             self._apply_size(SIZES[-1])
         else:
-            lo, hi = self.ROOT_HEIGHT_RANGE
-            f = self.size_factor(self.mode)
-            self._root_height_range = (lo * f, hi * f)
+            self._root_height_range = self._height_range(self.size_factor(self.mode))
 
     def load_spec(self) -> mujoco.MjSpec:
         spec = super().load_spec()
@@ -62,6 +60,11 @@ class BodySizesMixin:
     def extra_observations(self) -> list[tuple[str, int]]:
         extra = super().extra_observations()
         return extra + [("env_type", len(SIZES))] if self.mode == "all" else extra
+
+    def _height_range(self, factor: float) -> tuple[float, float]:
+        """The fall bounds of a body ``factor`` times the adult's height."""
+        lo, hi = self.ROOT_HEIGHT_RANGE
+        return lo * factor, hi * factor
 
     # ---- mode "all" -------------------------------------------------------------------------------
     def _compile_size(self, size: str) -> tuple[mujoco.MjModel, np.ndarray]:
@@ -86,7 +89,8 @@ class BodySizesMixin:
                             compiled.items()}
         self._size_home = {size: home for size, (_, home) in compiled.items()}
         self._size_code_idx = self._obs_idx["env_type"]
-        self._code_offset = self._n_extra - len(SIZES)
+        self._code_slice = slice(int(self._size_code_idx[0] - self._extra_offset),
+                                 int(self._size_code_idx[-1] - self._extra_offset) + 1)
         self._factors = np.array([self.size_factor(s) for s in SIZES])
         self.current_size = SIZES[-1]
 
@@ -99,10 +103,10 @@ class BodySizesMixin:
             setattr(m.stat, name, value)
         self._init_qpos = self._size_home[size]
         k = SIZES.index(size)
-        self._extra[self._code_offset:] = 0.0
-        self._extra[self._code_offset + k] = 1.0
-        lo, hi = self.ROOT_HEIGHT_RANGE
-        self._root_height_range = (lo * self._factors[k], hi * self._factors[k])
+        code = self._extra[self._code_slice]
+        code[:] = 0.0
+        code[k] = 1.0
+        self._root_height_range = self._height_range(self._factors[k])
         per_size = self._dataset_per_size_speed(size)
         if per_size is not None and isinstance(self._reward_fn, rw.TargetVelocityReward):
             self._reward_fn.target_velocity = per_size
@@ -127,7 +131,7 @@ class BodySizesMixin:
     def _extra_written(self) -> None:
         super()._extra_written()
         if self.mode == "all":
-            code = self._extra[self._code_offset:]
+            code = self._extra[self._code_slice]
             if not (np.isclose(code.sum(), 1.0) and np.isin(code, (0.0, 1.0)).all()):
                 raise ValueError(f"env_type entries of the reset observation must be one-hot over sizes "
                                  f"{SIZES}, got {code.tolist()}")
@@ -144,10 +148,5 @@ class BodySizesMixin:
     def is_absorbing(self, obs: np.ndarray) -> bool:
         if self.mode != "all":
             return super().is_absorbing(obs)
-        f = float(self._factors @ obs[self._size_code_idx])  # the observation's own size (replays mix sizes)
-        lo, hi = self.ROOT_HEIGHT_RANGE
-        saved, self._root_height_range = self._root_height_range, (lo * f, hi * f)
-        try:
-            return super().is_absorbing(obs)
-        finally:
-            self._root_height_range = saved
+        # the observation's own size: replays mix sizes
+        return self._fallen(obs, *self._height_range(float(self._factors @ obs[self._size_code_idx])))

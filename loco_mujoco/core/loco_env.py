@@ -28,7 +28,6 @@ from loco_mujoco.core.task_names import DATASET_TYPES, DEFAULT_DATASET_TYPE, par
 from loco_mujoco.core.trajectory_api import TrajectoryMixin
 from loco_mujoco.models import spec_edit
 
-CONTROL_MODES = ("torque", "pd", "muscle")
 OBSERVATION_GROUPS = ("positions", "velocities", "foot_forces", "weight", "env_type", "goal")
 LOAD_BODY = "carried_load"
 LOAD_MASSES = (0.1, 1.0, 5.0, 10.0)  # kg, one drawn per episode unless weight_mass= fixes it
@@ -319,9 +318,8 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         self._qpos_view, self._qvel_view = self._data.qpos, self._data.qvel  # fixed buffers: cache views
         self._n_foot = 0
         if self.use_foot_forces:
-            m_ = self._model
-            ids = [m_.sensor(f"foot_force_{f}").id for f in self.foot_bodies()]
-            self._foot_sensor_idx = np.concatenate([np.arange(m_.sensor_adr[i], m_.sensor_adr[i] + 3) for i in ids])
+            ids = [m.sensor(f"foot_force_{f}").id for f in self.foot_bodies()]
+            self._foot_sensor_idx = np.concatenate([np.arange(m.sensor_adr[i], m.sensor_adr[i] + 3) for i in ids])
             self._n_foot = len(self._foot_sensor_idx)
             self.obs_helper.add_obs("foot_forces", self._n_foot)
             n_joint_obs += self._n_foot
@@ -588,11 +586,14 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         """Embodiments with a goal in the observation choose it here (default: forward at target speed)."""
 
     def is_absorbing(self, obs: np.ndarray) -> bool:
-        """Fallen: root height outside ``ROOT_HEIGHT_RANGE`` or root tilted more than ``MAX_TILT``."""
+        """Fallen: root height outside ``root_height_range`` or root tilted more than ``MAX_TILT``."""
+        return self._fallen(obs, *self._root_height_range)
+
+    def _fallen(self, obs: np.ndarray, lo: float, hi: float) -> bool:
+        """Root height of ``obs`` outside [lo, hi], or its z axis tilted more than ``MAX_TILT``."""
         z = obs[self._root_z_i]
         qx, qy = obs[self._qx_i], obs[self._qy_i]
         up_z = 1.0 - 2.0 * (qx * qx + qy * qy)  # z component of the root's z axis in the world
-        lo, hi = self._root_height_range
         return bool(z < lo or z > hi or up_z < self._cos_max_tilt)
 
     def reward(self, obs: np.ndarray, action: np.ndarray, next_obs: np.ndarray, absorbing: bool) -> float:

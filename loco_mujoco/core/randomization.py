@@ -32,6 +32,9 @@ import mujoco
 import numpy as np
 import yaml
 
+from loco_mujoco.models.spec_edit import dof_width
+from loco_mujoco.rotations import mat_to_quat, quat_to_mat
+
 JOINT_PARAMS = ("damping", "stiffness", "frictionloss", "armature")
 BODY_PARAMS = ("mass", "diaginertia", "fullinertia")
 GEOM_PARAMS = ("friction", "mass", "density")
@@ -209,7 +212,16 @@ class DomainRandomizer:
         if "floor_friction" in self.global_plan and self._floor < 0:
             raise RandomizationConfigError(f"Global.floor_friction: the model has no geom named {floor_geom!r}")
         self._saved: dict[str, np.ndarray] | None = None
-        self.last_sample: dict[str, float] = {}
+        # The plan grouped by (section, parameter, distribution), for one vectorised draw per group at reset;
+        # joint parameters other than stiffness live on dofs, whose indices are computed here once.
+        grouped: dict[tuple[str, str, Distribution], list[int]] = {}
+        for (section, i, param), dist in self.plan.items():
+            grouped.setdefault((section, param, dist), []).append(i)
+        self._groups = {key: np.array(ids, dtype=np.intp) for key, ids in grouped.items()}
+        self._group_dofs = {key: np.concatenate([np.arange(model.jnt_dofadr[j],
+                                                           model.jnt_dofadr[j] + dof_width(model.jnt_type[j]))
+                                                 for j in ids])
+                            for key, ids in self._groups.items() if key[0] == "Joints" and key[1] != "stiffness"}
 
     def _skip_implicitly(self, section: str, i: int) -> bool:
         """Default sections leave out what has no such parameter: the world body, the free root, the floor."""
@@ -251,83 +263,48 @@ class DomainRandomizer:
         self._saved = None
         return True
 
-    def _groups(self) -> dict[tuple[str, str, Distribution], np.ndarray]:
-        """The plan grouped by (section, parameter, distribution): one vectorised draw per group."""
-        if getattr(self, "_grouped", None) is None:
-            grouped: dict[tuple[str, str, Distribution], list[int]] = {}
-            for (section, i, param), dist in self.plan.items():
-                grouped.setdefault((section, param, dist), []).append(i)
-            self._grouped = {k: np.array(v, dtype=np.intp) for k, v in grouped.items()}
-        return self._grouped
-
-    def _dofs_of(self, joints: np.ndarray) -> np.ndarray:
-        """The dof indices of ``joints`` (cached per joint set: computed once, used at every reset)."""
-        key = joints.tobytes()
-        cache = self.__dict__.setdefault("_dof_cache", {})
-        if key not in cache:
-            m = self.model
-            cache[key] = np.concatenate([np.arange(m.jnt_dofadr[j], m.jnt_dofadr[j] + _dof_count(m.jnt_type[j]))
-                                         for j in joints])
-        return cache[key]
-
     def apply(self, rng: np.random.Generator, data: mujoco.MjData) -> None:
-        """Sample every planned parameter around the model's current (nominal) values and write it in place.
-
-        ``last_sample`` maps ``(section, parameter)`` to ``(element ids, sampled values)`` for inspection.
-        """
+        """Sample every planned parameter around the model's current (nominal) values and write it in place."""
         m = self.model
         self._saved = {name: getattr(m, name).copy() for name in self._FIELDS}
         self._saved["gravity"] = m.opt.gravity.copy()
-        sample: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = {}
-        for (section, param, dist), ids in self._groups().items():
-            values = self._apply_group(section, param, dist, ids, rng)
-            prev = sample.get((section, param))
-            sample[(section, param)] = (ids, values) if prev is None else (
-                np.concatenate([prev[0], ids]), np.concatenate([prev[1], values]))
+        for key, ids in self._groups.items():
+            self._apply_group(key, ids, rng)
         if "floor_friction" in self.global_plan:
             f = self.global_plan["floor_friction"].sample(m.geom_friction[self._floor, :1], rng)
             m.geom_friction[self._floor, 0] = max(float(f[0]), 0.0)
-            sample[("Global", "floor_friction")] = (np.array([self._floor]), m.geom_friction[self._floor, :1].copy())
         if "gravity" in self.global_plan:
-            g = self.global_plan["gravity"].sample(m.opt.gravity[2:3], rng)
-            m.opt.gravity[2] = float(g[0])
-            sample[("Global", "gravity")] = (np.array([0]), g.copy())
+            m.opt.gravity[2] = float(self.global_plan["gravity"].sample(m.opt.gravity[2:3], rng)[0])
         mujoco.mj_setConst(m, data)
-        self.last_sample = sample
 
-    def _apply_group(self, section: str, param: str, dist: Distribution, ids: np.ndarray,
-                     rng: np.random.Generator) -> np.ndarray:
+    def _apply_group(self, key: tuple[str, str, Distribution], ids: np.ndarray, rng: np.random.Generator) -> None:
         m = self.model
+        section, param, dist = key
         if section == "Joints":
             if param == "stiffness":
-                m.jnt_stiffness[ids] = values = np.maximum(dist.sample(m.jnt_stiffness[ids], rng), 0.0)
-                return values
-            dofs = self._dofs_of(ids)
+                m.jnt_stiffness[ids] = np.maximum(dist.sample(m.jnt_stiffness[ids], rng), 0.0)
+                return
+            dofs = self._group_dofs[key]
             field = {"damping": m.dof_damping, "frictionloss": m.dof_frictionloss, "armature": m.dof_armature}[param]
-            field[dofs] = values = np.maximum(dist.sample(field[dofs], rng), 0.0)
-            return values
+            field[dofs] = np.maximum(dist.sample(field[dofs], rng), 0.0)
+            return
         if section == "Bodies":
             if param == "mass":
-                m.body_mass[ids] = values = np.maximum(dist.sample(m.body_mass[ids], rng), 0.0)
-                return values
-            if param == "diaginertia":
-                values = np.maximum(dist.sample(m.body_inertia[ids], rng), _MIN_INERTIA)
-                values = _satisfy_triangle(values)
-                m.body_inertia[ids] = values
-                return values
-            out = []
-            for b in ids:  # full inertia: perturb the six tensor entries, then re-diagonalise
-                full = _full_inertia(m.body_inertia[b], m.body_iquat[b])
-                entries = dist.sample(full[[0, 1, 2, 0, 0, 1], [0, 1, 2, 1, 2, 2]], rng)
-                full = np.array([[entries[0], entries[3], entries[4]], [entries[3], entries[1], entries[5]],
-                                 [entries[4], entries[5], entries[2]]])
-                m.body_inertia[b], m.body_iquat[b] = _principal(full)
-                out.append(entries)
-            return np.array(out)
+                m.body_mass[ids] = np.maximum(dist.sample(m.body_mass[ids], rng), 0.0)
+            elif param == "diaginertia":
+                m.body_inertia[ids] = _satisfy_triangle(np.maximum(dist.sample(m.body_inertia[ids], rng),
+                                                                   _MIN_INERTIA))
+            else:
+                for b in ids:  # full inertia: perturb the six tensor entries, then re-diagonalise
+                    full = _full_inertia(m.body_inertia[b], m.body_iquat[b])
+                    entries = dist.sample(full[[0, 1, 2, 0, 0, 1], [0, 1, 2, 1, 2, 2]], rng)
+                    full = np.array([[entries[0], entries[3], entries[4]], [entries[3], entries[1], entries[5]],
+                                     [entries[4], entries[5], entries[2]]])
+                    m.body_inertia[b], m.body_iquat[b] = _principal(full)
+            return
         if param == "friction":
-            m.geom_friction[ids, 0] = values = np.maximum(dist.sample(m.geom_friction[ids, 0], rng), 0.0)
-            return values
-        out = []
+            m.geom_friction[ids, 0] = np.maximum(dist.sample(m.geom_friction[ids, 0], rng), 0.0)
+            return
         for g in ids:  # geom mass/density: the change from its nominal solid mass goes to its body
             volume = _VOLUME[mujoco.mjtGeom(int(m.geom_type[g]))](m.geom_size[g])
             nominal = _DEFAULT_DENSITY * volume
@@ -336,22 +313,10 @@ class DomainRandomizer:
             else:
                 new_mass = max(float(dist.sample(np.array([nominal]), rng)[0]), 0.0)
             _add_solid(m, g, new_mass - nominal)
-            out.append(new_mass)
-        return np.array(out)
-
-
-def _dof_count(jtype: int) -> int:
-    return {mujoco.mjtJoint.mjJNT_FREE: 6, mujoco.mjtJoint.mjJNT_BALL: 3}.get(mujoco.mjtJoint(int(jtype)), 1)
-
-
-def _quat_to_mat(quat: np.ndarray) -> np.ndarray:
-    mat = np.zeros(9)
-    mujoco.mju_quat2Mat(mat, np.asarray(quat, dtype=float))
-    return mat.reshape(3, 3)
 
 
 def _full_inertia(diag: np.ndarray, iquat: np.ndarray) -> np.ndarray:
-    rot = _quat_to_mat(iquat)
+    rot = quat_to_mat(iquat)
     return rot @ np.diag(diag) @ rot.T
 
 
@@ -363,9 +328,7 @@ def _principal(full: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     values = _satisfy_triangle(np.maximum(values, _MIN_INERTIA)[None])[0]
     if np.linalg.det(vectors) < 0:
         vectors[:, 0] = -vectors[:, 0]
-    quat = np.zeros(4)
-    mujoco.mju_mat2Quat(quat, vectors.flatten())
-    return values, quat
+    return values, mat_to_quat(vectors)
 
 
 def _satisfy_triangle(moments: np.ndarray) -> np.ndarray:

@@ -18,7 +18,7 @@ from scipy.spatial.transform import Rotation
 from loco_mujoco.datasets.human_gait import SIDES, HumanGait
 from loco_mujoco.datasets.motion import Motion
 from loco_mujoco.datasets.resample import resample_angles, resample_quat
-from loco_mujoco.models.couplings import apply_joint_couplings
+from loco_mujoco.models.posture import apply_joint_couplings
 
 # A source's root must rise this far (m) above what its legs reach before the frame counts as flight.
 FLIGHT_MARGIN = 0.025

@@ -17,7 +17,7 @@ import mujoco
 import numpy as np
 
 from loco_mujoco.models.facts import load_facts, spec_from_facts
-from loco_mujoco.models.spec_edit import qpos_width
+from loco_mujoco.models.posture import lowest_point
 
 MODELS_DIR = Path(__file__).resolve().parent
 OWN_MODELS = {
@@ -86,29 +86,10 @@ def set_home(spec: mujoco.MjSpec, angles: Mapping[str, float]) -> None:
         qpos[model.joint(name).qposadr[0]] = value
     data.qpos[:] = qpos
     mujoco.mj_kinematics(model, data)
-    lowest = np.inf
     floor = model.geom("floor").id
-    for g in range(model.ngeom):
-        if g == floor or not (model.geom_contype[g] or model.geom_conaffinity[g]):
-            continue
-        lowest = min(lowest, _geom_lowest_z(model, data, g))
-    qpos[2] = -lowest
+    colliding = [g for g in range(model.ngeom) if g != floor and (model.geom_contype[g] or model.geom_conaffinity[g])]
+    qpos[2] = -lowest_point(model, data, colliding)
     spec.add_key(name="home", qpos=qpos)
-
-
-def _geom_lowest_z(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> float:
-    size, kind = model.geom_size[g], model.geom_type[g]
-    rot = data.geom_xmat[g].reshape(3, 3)
-    center = data.geom_xpos[g]
-    if kind == mujoco.mjtGeom.mjGEOM_SPHERE:
-        return float(center[2] - size[0])
-    if kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
-        return float(center[2] - abs(rot[2, 2]) * size[1] - size[0])
-    if kind == mujoco.mjtGeom.mjGEOM_BOX:
-        return float(center[2] - np.abs(rot[2]) @ size)
-    if kind == mujoco.mjtGeom.mjGEOM_CYLINDER:
-        return float(center[2] - abs(rot[2, 2]) * size[1] - np.hypot(rot[2, 0], rot[2, 1]) * size[0])
-    raise ValueError(f"geom {g} of type {kind}: no lowest-point rule")
 
 
 def author_atlas(facts: Mapping[str, Any]) -> mujoco.MjSpec:
@@ -152,16 +133,6 @@ def load_own_spec(model: str) -> mujoco.MjSpec:
     if not path.is_file():
         raise FileNotFoundError(f"{path} is missing; regenerate it with `python -m loco_mujoco.models.authoring`")
     return mujoco.MjSpec.from_file(str(path))
-
-
-def qpos_of(model: mujoco.MjModel, angles: Mapping[str, float]) -> np.ndarray:
-    """A qpos with the root upright at the origin and ``angles`` set by joint name."""
-    qpos = np.zeros(model.nq)
-    qpos[3] = 1.0
-    for name, value in angles.items():
-        j = model.joint(name)
-        qpos[j.qposadr[0]: j.qposadr[0] + qpos_width(j.type[0])] = value
-    return qpos
 
 
 def main() -> None:

@@ -22,8 +22,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from loco_mujoco.models.couplings import apply_joint_couplings
-from loco_mujoco.rotations import quat_mul
+from loco_mujoco.models.posture import apply_joint_couplings, lowest_point
+from loco_mujoco.rotations import mat_to_quat, quat_conj, quat_mul, rotate
 
 MYO_SIM_MODEL = "myolegs"  # myo-sim's registry name: passive torso scaffold + MyoLeg, with a free joint "root"
 ROOT_BODY = "root"  # myo-sim's "Full Body": a world-aligned frame at the pelvis origin holding the free joint
@@ -169,12 +169,10 @@ def _merge_torso_scaffold(spec: mujoco.MjSpec, model: mujoco.MjModel) -> None:
                 or model.geom_contype[g] or model.geom_conaffinity[g]):
             continue
         mesh = int(model.geom_dataid[g])
-        quat = _mat2quat(to_root @ data.geom_xmat[g].reshape(3, 3))
+        quat = mat_to_quat(to_root @ data.geom_xmat[g].reshape(3, 3))
         # The compiler re-centres a mesh on its inertia frame and moves the geom by (mesh_pos, mesh_quat): undo it.
-        authored_quat = np.zeros(4)
-        mujoco.mju_mulQuat(authored_quat, quat, _conj(model.mesh_quat[mesh]))
-        offset = np.zeros(3)
-        mujoco.mju_rotVecQuat(offset, model.mesh_pos[mesh], authored_quat)
+        authored_quat = quat_mul(quat, quat_conj(model.mesh_quat[mesh]))
+        offset = rotate(authored_quat, model.mesh_pos[mesh])
         material = model.material(int(model.geom_matid[g])).name if model.geom_matid[g] >= 0 else ""
         meshes.append((model.mesh(mesh).name, material, model.geom_rgba[g].copy(), int(model.geom_group[g]),
                        (data.geom_xpos[g] - origin) @ to_root.T - offset, authored_quat))
@@ -184,7 +182,7 @@ def _merge_torso_scaffold(spec: mujoco.MjSpec, model: mujoco.MjModel) -> None:
     to_pelvis = data.xmat[pelvis].reshape(3, 3).T @ data.xmat[root].reshape(3, 3)
     torso = spec.body("pelvis").add_body(
         name=TORSO_BODY, pos=data.xmat[pelvis].reshape(3, 3).T @ (origin - data.xpos[pelvis]),
-        quat=_mat2quat(to_pelvis))
+        quat=mat_to_quat(to_pelvis))
     torso.explicitinertial = True
     torso.mass = mass
     torso.ipos = com
@@ -200,16 +198,6 @@ def _is_in_subtree(model: mujoco.MjModel, body: int, top: int) -> bool:
             return True
         body = int(model.body_parentid[body])
     return False
-
-
-def _mat2quat(mat: np.ndarray) -> np.ndarray:
-    quat = np.zeros(4)
-    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(mat).ravel())
-    return quat
-
-
-def _conj(quat: np.ndarray) -> np.ndarray:
-    return np.array([quat[0], -quat[1], -quat[2], -quat[3]])
 
 
 def _keep_only_foot_floor_contacts(spec: mujoco.MjSpec) -> None:
@@ -289,10 +277,4 @@ def sole_geoms(model: mujoco.MjModel) -> list[int]:
 
 def lowest_sole_point(model: mujoco.MjModel, data: mujoco.MjData) -> float:
     """Height (m) of the lowest point of the sole geoms in the current pose (needs ``mj_kinematics``)."""
-    floor = model.geom(FLOOR).id
-    fromto = np.zeros(6)
-    lowest = math.inf
-    for g in sole_geoms(model):
-        distance = mujoco.mj_geomDistance(model, data, g, floor, 10.0, fromto)
-        lowest = min(lowest, distance + float(model.geom_pos[floor][2]))
-    return lowest
+    return lowest_point(model, data, sole_geoms(model), FLOOR)

@@ -1,4 +1,4 @@
-"""Joint couplings of a compiled model (equality constraints between joints) applied to poses."""
+"""Poses of a compiled model: its joint couplings satisfied, its height above the floor."""
 
 from __future__ import annotations
 
@@ -22,3 +22,11 @@ def apply_joint_couplings(model: mujoco.MjModel, qpos: np.ndarray) -> np.ndarray
         x = frames[:, a2] - model.qpos0[a2]
         frames[:, a1] = model.qpos0[a1] + np.polynomial.polynomial.polyval(x, model.eq_data[e][:5])
     return qpos
+
+
+def lowest_point(model: mujoco.MjModel, data: mujoco.MjData, geoms: list[int], floor: str = "floor") -> float:
+    """Height (m) above the floor plane of the lowest point of ``geoms`` in the current pose (after
+    ``mj_kinematics``): MuJoCo's exact geom distance, for any geom type."""
+    floor_id = model.geom(floor).id
+    fromto = np.zeros(6)
+    return min(mujoco.mj_geomDistance(model, data, g, floor_id, 10.0, fromto) for g in geoms)
