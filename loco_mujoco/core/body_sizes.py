@@ -137,8 +137,8 @@ class BodySizesMixin:
                                  f"{SIZES}, got {code.tolist()}")
             self._apply_size(SIZES[int(np.argmax(code))])
 
-    def _dataset_extras(self, frames: np.ndarray | slice) -> list[np.ndarray]:
-        extras = super()._dataset_extras(frames)
+    def _dataset_extras(self, frames: np.ndarray | slice, n: int) -> list[np.ndarray]:
+        extras = super()._dataset_extras(frames, n)
         if self.mode != "all":
             return extras
         ds = self.dataset

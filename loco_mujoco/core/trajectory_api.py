@@ -80,13 +80,12 @@ class TrajectoryMixin:
         parts = [qpos[:, self._qpos_idx], qvel[:, self._qvel_idx]]
         if self._n_foot:  # motion data has no forces: NaN, so that using them by mistake shows
             parts.append(np.full((len(qpos), self._n_foot), np.nan))
-        parts += self._dataset_extras(frames)
+        parts += self._dataset_extras(frames, len(qpos))
         return np.concatenate(parts, axis=1)
 
-    def _dataset_extras(self, frames: np.ndarray | slice) -> list[np.ndarray]:
-        """The extra observation entries (see ``extra_observations``) of dataset frames; NaN where the motion
-        data cannot know them (the carried load)."""
-        n = len(np.arange(self.dataset.n_frames)[frames])
+    def _dataset_extras(self, frames: np.ndarray | slice, n: int) -> list[np.ndarray]:
+        """The extra observation entries (see ``extra_observations``) of the ``n`` dataset ``frames``; NaN where
+        the motion data cannot know them (the carried load)."""
         out = [self._dataset_goals()[frames]] if self.GOAL_OBSERVATION else []
         if self.has_load:
             out.append(np.full((n, 1), np.nan))

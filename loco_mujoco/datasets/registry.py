@@ -187,6 +187,12 @@ def load_dataset(env_cls: type[LocoEnv], task: str, variant: str | None = None, 
     return dataset
 
 
+def combine_quality(qualities: list[dict[str, float]], frames: np.ndarray) -> dict[str, float]:
+    """Quality figures of several trajectories as one: maxima stay maxima, the rest are frame-weighted means."""
+    return {k: float(np.max([q[k] for q in qualities])) if k.endswith("max_m") else
+            float(np.average([q[k] for q in qualities], weights=frames)) for k in qualities[0]}
+
+
 def join_sizes(parts: list[TrajectoryDataset], sizes: tuple[str, ...]) -> TrajectoryDataset:
     """One dataset from the per-size datasets of a body-size environment, trajectories labelled by size."""
     first = parts[0]
@@ -200,9 +206,7 @@ def join_sizes(parts: list[TrajectoryDataset], sizes: tuple[str, ...]) -> Trajec
     metadata["per_size"] = {size: {k: p.metadata[k] for k in ("mean_forward_speed", "mean_speed", "quality")}
                             for p, size in zip(parts, sizes, strict=True)}
     frames = np.array([p.n_frames for p in parts], dtype=float)
-    metadata["quality"] = {k: float(np.max([p.metadata["quality"][k] for p in parts])) if k.endswith("max_m") else
-                           float(np.average([p.metadata["quality"][k] for p in parts], weights=frames))
-                           for k in first.metadata["quality"]}
+    metadata["quality"] = combine_quality([p.metadata["quality"] for p in parts], frames)
     for key in ("mean_forward_speed", "mean_speed"):
         metadata[key] = float(np.average([p.metadata[key] for p in parts], weights=frames))
     metadata["seconds"] = float(sum(p.metadata["seconds"] for p in parts))
@@ -240,9 +244,7 @@ def build_dataset(env_cls: type[LocoEnv], task: str, variant: str | None = None,
     qvel = np.concatenate([t.qvel for t in trajectories])
     splits = np.concatenate([[0], np.cumsum([len(t.qpos) for t in trajectories])])
     frames = np.array([len(t.qpos) for t in trajectories], dtype=float)
-    quality = {k: float(np.max([t.quality[k] for t in trajectories])) if k.endswith("max_m") else
-               float(np.average([t.quality[k] for t in trajectories], weights=frames))
-               for k in trajectories[0].quality}
+    quality = combine_quality([t.quality for t in trajectories], frames)
     sources = []
     for clip in recipe.clips:
         info = SOURCE_FILES[clip.path]

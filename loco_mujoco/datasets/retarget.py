@@ -19,6 +19,7 @@ from loco_mujoco.datasets.human_gait import SIDES, HumanGait
 from loco_mujoco.datasets.motion import Motion
 from loco_mujoco.datasets.resample import resample_angles, resample_quat
 from loco_mujoco.models.posture import apply_joint_couplings
+from loco_mujoco.rotations import quat_to_mat
 
 # A source's root must rise this far (m) above what its legs reach before the frame counts as flight.
 FLIGHT_MARGIN = 0.025
@@ -82,7 +83,6 @@ class _Feet:
     def __init__(self, model: mujoco.MjModel, bodies: tuple[str, ...]):
         self.model = model
         foot_ids = [model.body(b).id for b in bodies]
-        self.body_ids = np.array(foot_ids)
         owner = {}  # body id -> index of the foot whose subtree holds it
         for b in range(model.nbody):
             a = b
@@ -131,7 +131,7 @@ class _Feet:
 def _geom_points(model: mujoco.MjModel, g: int) -> tuple[list[np.ndarray], float]:
     """Points (in the body frame) and a radius whose swept spheres bound a geom from below."""
     size, kind = model.geom_size[g], model.geom_type[g]
-    rot = Rotation.from_quat(model.geom_quat[g][[1, 2, 3, 0]]).as_matrix()
+    rot = quat_to_mat(model.geom_quat[g])
     if kind == mujoco.mjtGeom.mjGEOM_SPHERE:
         local, radius = [np.zeros(3)], size[0]
     elif kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
