@@ -24,13 +24,12 @@ def scale_spec(spec: mujoco.MjSpec, factor: float) -> None:
     if not (np.isfinite(factor) and factor > 0):
         raise ValueError(f"scale factor must be a positive number, got {factor}")
     f, f2, f3, f5 = factor, factor**2, factor**3, factor**5
-    world = spec.worldbody
     for body in spec.bodies:
-        if body is world or body.name == "world":
+        if body.name == "world":  # by name: MjSpec wrappers are recreated on access, so `is` cannot tell
             continue
         _scale_attr(body, "pos", f)
         _scale_attr(body, "ipos", f)
-        body.mass = body.mass * f3
+        _scale_attr(body, "mass", f3)
         _scale_attr(body, "inertia", f5)
         if np.any(np.asarray(body.fullinertia)):
             _scale_attr(body, "fullinertia", f5)
@@ -50,7 +49,7 @@ def scale_spec(spec: mujoco.MjSpec, factor: float) -> None:
             _scale_attr(joint, "pos", f)
             if joint.type == mujoco.mjtJoint.mjJNT_SLIDE:
                 _scale_attr(joint, "range", f)
-            joint.stiffness = joint.stiffness * f2
+            _scale_attr(joint, "stiffness", f2)
             _scale_attr(joint, "damping", f2)
             _scale_attr(joint, "frictionloss", f2)
             _scale_attr(joint, "armature", f5)
@@ -60,8 +59,8 @@ def scale_spec(spec: mujoco.MjSpec, factor: float) -> None:
         _scale_attr(tendon, "springlength", f)
         if tendon.limited == mujoco.mjtLimited.mjLIMITED_TRUE or np.any(np.asarray(tendon.range)):
             _scale_attr(tendon, "range", f)
-        tendon.stiffness = np.asarray(tendon.stiffness, dtype=float) * f  # force per length: f^2 / f
-        tendon.damping = np.asarray(tendon.damping, dtype=float) * f
+        _scale_attr(tendon, "stiffness", f)  # force per length: f^2 / f
+        _scale_attr(tendon, "damping", f)
     for mesh in spec.meshes:
         _scale_attr(mesh, "scale", f)
     for act in spec.actuators:
