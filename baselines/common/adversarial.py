@@ -169,6 +169,7 @@ class AdversarialImitation(Agent):
         self.disc_standardizer = RunningStandardizer(in_dim, clip=config.obs_clip)
         self.fit_count = 0
         self._fit_stats: dict[str, float] = {}
+        self._disc_stats: dict[str, float] = {}
 
     @classmethod
     def from_env(cls, env: Any, config: AdversarialConfig | dict | None = None, seed: int = 0,
@@ -240,7 +241,8 @@ class AdversarialImitation(Agent):
         self.obs_standardizer.update(x)
         stats: dict[str, float] = {"fit": self.fit_count, "env_reward_mean": float(env_reward.mean())}
         if self.fit_count % self.config.train_disc_every == 0:
-            stats.update(self.train_discriminator(x, u, xn))
+            self._disc_stats = self.train_discriminator(x, u, xn)
+        stats.update(self._disc_stats)  # the latest discriminator training's figures
         reward = self.reward(x, u, xn)
         stats["disc_reward_mean"] = float(reward.mean())
         if isinstance(self.learner, FastTRPO):
@@ -309,7 +311,8 @@ class AdversarialImitation(Agent):
                 "disc_standardizer": self.disc_standardizer.state_dict(),
                 "discriminator": self.discriminator.state_dict(), "disc_optimizer": self.disc_optimizer.state_dict(),
                 "rng": self._rng.bit_generator.state, "torch_rng": self._torch_generator.get_state(),
-                "learner": self.learner.state_dict(), "extra": self.extra_state()}
+                "learner": self.learner.state_dict(), "extra": self.extra_state(),
+                "disc_stats": dict(self._disc_stats)}
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
         if state["algorithm"] != self.name:
@@ -326,3 +329,4 @@ class AdversarialImitation(Agent):
         self._torch_generator.set_state(state["torch_rng"])
         self.learner.load_state_dict(state["learner"])
         self.load_extra_state(state["extra"])
+        self._disc_stats = dict(state.get("disc_stats", {}))

@@ -1,0 +1,210 @@
+"""Train an adversarial imitation agent epoch by epoch, with evaluation, logging and exact checkpoints.
+
+A run directory holds ``config.yaml`` (the resolved configuration), ``checkpoint.pt`` (the latest epoch),
+``progress.csv`` (one row per epoch: evaluation and training statistics) and ``tensorboard/``.
+
+One epoch is one ``Core.learn`` call of ``train.epoch_steps`` steps (it ends on a fit), then a deterministic
+evaluation on a separate environment re-seeded with ``train.eval_seed`` (the same start states every epoch),
+then the log row, then the checkpoint (written atomically). A killed run therefore loses at most the epoch in
+progress, and resuming restores the agent, the training environment's generator and the global torch / numpy
+generators, so it continues exactly as if it had never stopped.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+import yaml
+from mushroom_rl.core import Core
+from tqdm import tqdm
+
+from baselines.common.evaluation import evaluate
+from baselines.common.expert_data import ExpertData, kinematic_obs_mask
+from baselines.common.logger import CSVLogger
+from baselines.config import RunConfig
+
+CHECKPOINT = "checkpoint.pt"
+CHECKPOINT_FORMAT = 1
+
+
+def make_env(run: RunConfig, seed: int) -> Any:
+    from loco_mujoco import LocoEnv
+
+    return LocoEnv.make(run.task, seed=seed, **run.env)
+
+
+def make_expert(run: RunConfig, env: Any) -> ExpertData:
+    """The expert transitions; with ``train.expert_actions: inverse_dynamics`` actions derived by inverse dynamics."""
+    dataset = env.create_dataset()
+    if run.train.expert_actions == "inverse_dynamics":
+        from baselines.common.inverse_dynamics import inverse_dynamics_actions
+
+        dataset = {**dataset, "actions": inverse_dynamics_actions(env)}
+    return ExpertData(dataset, kinematic_obs_mask(env))
+
+
+def build(run: RunConfig) -> tuple[Any, Any]:
+    """The training environment and the agent of ``run`` (agent seeded with ``run.seed``)."""
+    from baselines import make_agent
+
+    env = make_env(run, seed=run.seed)
+    agent = make_agent(run.algorithm, env, config=run.agent, seed=run.seed, expert=make_expert(run, env))
+    return env, agent
+
+
+def load_checkpoint(path: str | Path) -> dict[str, Any]:
+    """A checkpoint written by :class:`Trainer` (tensors and plain values: safe ``weights_only`` loading)."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / CHECKPOINT
+    if not path.exists():
+        raise FileNotFoundError(f"no checkpoint at {path}")
+    try:
+        state = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as err:  # noqa: BLE001  (a truncated or foreign file)
+        raise ValueError(f"{path} is not a readable checkpoint: {err}") from None
+    if not isinstance(state, dict) or state.get("format") != CHECKPOINT_FORMAT:
+        raise ValueError(f"{path} is not a loco_mujoco baselines checkpoint (format {CHECKPOINT_FORMAT})")
+    return state
+
+
+def run_config_from_checkpoint(state: dict[str, Any]) -> RunConfig:
+    """The exact configuration a checkpoint was trained with (independent of today's YAML files)."""
+    from baselines import ALGORITHMS
+    from baselines.config import TrainConfig
+
+    c = state["run_config"]
+    agent = ALGORITHMS[c["algorithm"]].config_class.from_dict(c["agent"])
+    return RunConfig(task=c["task"], algorithm=c["algorithm"], seed=int(c["seed"]), env=dict(c["env"]),
+                     train=TrainConfig(**c["train"]), agent=agent, sources=list(c["sources"]))
+
+
+class Trainer:
+    """Runs (or resumes) ``run`` in ``out_dir``; ``train()`` returns the last evaluation."""
+
+    def __init__(self, run: RunConfig, out_dir: str | Path, resume: bool = False, progress: bool = True):
+        self.out_dir = Path(out_dir)
+        self.checkpoint_path = self.out_dir / CHECKPOINT
+        state = None
+        if resume:
+            state = load_checkpoint(self.checkpoint_path)
+            saved = run_config_from_checkpoint(state)
+            if (saved.task, saved.algorithm, saved.seed) != (run.task, run.algorithm, run.seed):
+                raise ValueError(f"{self.checkpoint_path} is {saved.algorithm} on {saved.task} seed {saved.seed}, "
+                                 f"not {run.algorithm} on {run.task} seed {run.seed}")
+            saved.train.n_steps = run.train.n_steps  # the one thing a resume may change: how long to go on
+            run = saved
+        elif self.checkpoint_path.exists():
+            raise FileExistsError(f"{self.checkpoint_path} exists: pass --resume to continue that run, "
+                                  f"or choose another --out")
+        self.run = run
+        self.progress = progress
+        self.out_dir.mkdir(parents=True, exist_ok=True)
+        # The agent and env own seeded generators; the global ones are seeded too, for any code that uses them.
+        torch.manual_seed(run.seed)
+        np.random.seed(run.seed)
+        self.env, self.agent = build(run)
+        self.eval_env = make_env(run, seed=run.train.eval_seed)
+        self.epoch, self.steps, self.wall_s = 0, 0, 0.0
+        if state is not None:
+            self._restore(state)
+            _truncate_csv(self.out_dir / "progress.csv", self.steps)
+        else:
+            (self.out_dir / "config.yaml").write_text(yaml.safe_dump(run.to_dict(), sort_keys=False))
+        self.logger = CSVLogger(self.out_dir)
+
+    # ---- the loop -------------------------------------------------------------------------------------
+    def train(self) -> dict[str, float]:
+        run, last_eval = self.run, {}
+        core = Core(self.agent, self.env, callbacks_fit=[self._on_fit])
+        self._bar = tqdm(total=run.train.n_steps, initial=self.steps, unit="step", dynamic_ncols=True,
+                         disable=not self.progress, desc=f"{run.algorithm} {run.task}")
+        try:
+            while self.steps < run.train.n_steps:
+                n = min(run.train.epoch_steps, run.train.n_steps - self.steps)
+                n -= n % run.agent.n_steps_per_fit
+                if n == 0:
+                    break
+                start = time.perf_counter()
+                core.learn(n_steps=n, n_steps_per_fit=run.agent.n_steps_per_fit, quiet=True)
+                train_s = time.perf_counter() - start
+                self.steps += n
+                self.epoch += 1
+                self.wall_s += train_s
+                last_eval = self.evaluate()
+                stats = self.agent.last_stats
+                self.logger.log(self.steps, epoch=self.epoch, **last_eval, train_steps_per_s=n / train_s,
+                                **{k: v for k, v in stats.items() if k != "fit"})
+                self.save()
+                self._bar.set_postfix(L=f"{last_eval['L']:.0f}", R=f"{last_eval['R']:.1f}",
+                                      task_r=f"{last_eval['task_reward']:.3f}")
+        finally:
+            self._bar.close()
+            self.agent.stop()
+            self.logger.close()
+        return last_eval
+
+    def _on_fit(self, dataset: list) -> None:
+        self._bar.update(self.run.agent.n_steps_per_fit)
+
+    def evaluate(self) -> dict[str, float]:
+        """Deterministic (and optionally stochastic) evaluation on the evaluation env, re-seeded each time."""
+        t = self.run.train
+        self.eval_env.seed(t.eval_seed)
+        det = evaluate(self.agent, self.eval_env, n_episodes=t.n_eval_episodes, deterministic=True, seed=t.eval_seed)
+        out = {k: v for k, v in det.items() if k != "deterministic"}
+        if t.n_eval_episodes_stochastic:
+            self.eval_env.seed(t.eval_seed)
+            sto = evaluate(self.agent, self.eval_env, n_episodes=t.n_eval_episodes_stochastic, deterministic=False,
+                           seed=t.eval_seed)
+            out.update({f"stochastic_{k}": v for k, v in sto.items() if k != "deterministic"})
+        return out
+
+    # ---- checkpoints ----------------------------------------------------------------------------------
+    def state_dict(self) -> dict[str, Any]:
+        return {"format": CHECKPOINT_FORMAT, "run_config": self.run.to_dict(), "env_name": self.run.task,
+                "epoch": self.epoch, "steps": self.steps, "wall_s": self.wall_s,
+                "agent": self.agent.state_dict(), "env_rng": self.env._rng.bit_generator.state,
+                "torch_rng": torch.get_rng_state(), "numpy_rng": _numpy_global_state()}
+
+    def save(self) -> None:
+        tmp = self.checkpoint_path.with_suffix(".tmp")
+        torch.save(self.state_dict(), tmp)
+        os.replace(tmp, self.checkpoint_path)
+
+    def _restore(self, state: dict[str, Any]) -> None:
+        self.agent.load_state_dict(state["agent"])
+        self.env._rng.bit_generator.state = state["env_rng"]
+        torch.set_rng_state(state["torch_rng"])
+        _set_numpy_global_state(state["numpy_rng"])
+        self.epoch, self.steps, self.wall_s = int(state["epoch"]), int(state["steps"]), float(state["wall_s"])
+
+
+def _numpy_global_state() -> dict[str, Any]:
+    name, keys, pos, has_gauss, cached = np.random.get_state()
+    return {"name": name, "keys": torch.from_numpy(keys.astype(np.int64)), "pos": int(pos),
+            "has_gauss": int(has_gauss), "cached_gaussian": float(cached)}
+
+
+def _set_numpy_global_state(s: dict[str, Any]) -> None:
+    np.random.set_state((s["name"], s["keys"].numpy().astype(np.uint32), s["pos"], s["has_gauss"],
+                         s["cached_gaussian"]))
+
+
+def _truncate_csv(path: Path, max_step: int) -> None:
+    """Drop rows logged after the checkpoint (an epoch whose checkpoint was never written)."""
+    if not path.exists():
+        return
+    with path.open(newline="") as f:
+        reader = csv.DictReader(f)
+        fields, rows = reader.fieldnames or [], [r for r in reader if int(r["step"]) <= max_step]
+    with path.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=fields)
+        writer.writeheader()
+        writer.writerows(rows)

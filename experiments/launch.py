@@ -1,0 +1,78 @@
+"""Train a baseline on a task: ``python experiments/launch.py --env UnitreeH1.walk --algo vail``.
+
+The configuration comes from ``configs/defaults.yaml`` and ``configs/<algo>/<task>.yaml``. The run directory
+(``--out``, default ``runs/<task>/<algo>/seed<N>``) receives the resolved config, ``progress.csv``,
+TensorBoard logs and ``checkpoint.pt`` after every epoch. Ctrl-C (or a kill) loses at most the epoch in
+progress; ``--resume`` continues bit for bit from the last checkpoint, and ``--steps`` may extend the run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # run from a checkout without installing
+
+from baselines import ALGORITHMS  # noqa: E402
+from baselines.config import CONFIG_DIR, ConfigError, load_run_config  # noqa: E402
+from baselines.training import Trainer  # noqa: E402
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--env", required=True, help="task name, e.g. UnitreeH1.walk")
+    parser.add_argument("--algo", required=True, choices=sorted(ALGORITHMS), help="algorithm")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--steps", type=int, help="total environment steps (default: the config's train.n_steps)")
+    parser.add_argument("--epoch-steps", type=int, help="steps between evaluations / checkpoints (default: config)")
+    parser.add_argument("--out", help="run directory (default: runs/<task>/<algo>/seed<N>)")
+    parser.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
+    parser.add_argument("--config-dir", default=str(CONFIG_DIR), help="directory of the YAML configs")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    return parser.parse_args(argv)
+
+
+def _stop_on_sigterm(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    train_overrides = {}
+    if args.steps is not None:
+        train_overrides["n_steps"] = args.steps
+    if args.epoch_steps is not None:
+        train_overrides["epoch_steps"] = args.epoch_steps
+    try:
+        run = load_run_config(args.env, args.algo, seed=args.seed, config_dir=args.config_dir,
+                              overrides={"train": train_overrides})
+    except (ConfigError, ValueError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    out = Path(args.out or Path("runs") / args.env / args.algo / f"seed{args.seed}")
+    try:
+        trainer = Trainer(run, out, resume=args.resume, progress=not args.quiet)
+    except (FileExistsError, FileNotFoundError, ValueError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    signal.signal(signal.SIGTERM, _stop_on_sigterm)
+    print(f"{run.algorithm} on {run.task}, seed {run.seed}: {trainer.steps:,} of {trainer.run.train.n_steps:,} steps "
+          f"done, run directory {out}", flush=True)
+    try:
+        result = trainer.train()
+    except KeyboardInterrupt:
+        print(f"\ninterrupted; checkpoint at epoch {trainer.epoch} ({trainer.steps:,} steps) in {out}. "
+              f"Continue with: --resume --out {out}", file=sys.stderr)
+        return 130
+    if result:
+        print(f"epoch {trainer.epoch}, {trainer.steps:,} steps: R={result['R']:.2f} J={result['J']:.2f} "
+              f"L={result['L']:.1f} task_reward={result['task_reward']:.4f} (deterministic, "
+              f"{run.train.n_eval_episodes} episodes)")
+    print(f"checkpoint: {trainer.checkpoint_path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,217 @@
+"""Configs, the training loop with checkpoints, the launcher and evaluation scripts, inverse-dynamics actions."""
+
+import csv
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+import torch
+import yaml
+
+import loco_mujoco as lm
+
+# isort: split
+from baselines import ALGORITHMS  # noqa: E402
+from baselines.common.inverse_dynamics import (  # noqa: E402
+    controls_from_inverse,
+    inverse_dynamics_actions,
+    inverse_dynamics_report,
+)
+from baselines.config import CONFIG_DIR, ConfigError, load_run_config  # noqa: E402
+from baselines.training import Trainer, load_checkpoint  # noqa: E402
+from loco_mujoco.core.task_names import DATASET_TYPES, list_tasks  # noqa: E402
+
+REPO = Path(__file__).resolve().parent.parent
+BASE_TASKS = [t for t in list_tasks() if t.split(".")[-1] not in DATASET_TYPES]
+# A run small enough for a test: tiny networks, 200 steps per fit, 400 per epoch, short evaluation episodes.
+TINY = {"env": {"horizon": 100},
+        "train": {"n_steps": 1200, "epoch_steps": 400, "n_eval_episodes": 2},
+        "agent": {"n_steps_per_fit": 200, "n_threads": 1, "policy_hidden": [32], "critic_hidden": [32],
+                  "disc_hidden": [32], "disc_batch_size": 128, "train_disc_every": 1}}
+
+
+@pytest.fixture(scope="module", autouse=True)
+def restore_torch_threads():
+    threads = torch.get_num_threads()
+    yield
+    torch.set_num_threads(threads)
+
+
+# ---- configs -------------------------------------------------------------------------------------------
+def test_every_task_has_a_valid_config_for_every_algorithm():
+    assert len(BASE_TASKS) == 33
+    for algorithm in ALGORITHMS:
+        files = {p.stem for p in (CONFIG_DIR / algorithm).glob("*.yaml")}
+        assert files == set(BASE_TASKS), f"{algorithm}: missing {set(BASE_TASKS) - files}, extra {files - set(BASE_TASKS)}"
+        for task in BASE_TASKS:
+            run = load_run_config(task, algorithm)
+            assert run.agent.n_steps_per_fit >= 1 and run.train.epoch_steps % run.agent.n_steps_per_fit == 0
+
+
+def test_config_layers_merge_in_order(tmp_path):
+    (tmp_path / "vail").mkdir()
+    (tmp_path / "defaults.yaml").write_text(yaml.safe_dump({
+        "env": {"horizon": 500}, "train": {"n_steps": 1000}, "agent": {"std_0": 0.9, "max_kl": 0.01},
+        "algorithms": {"vail": {"std_0": 0.7, "latent_dim": 16}}}))
+    (tmp_path / "vail" / "UnitreeH1.walk.yaml").write_text(yaml.safe_dump({"agent": {"latent_dim": 8}}))
+    run = load_run_config("UnitreeH1.walk", "vail", seed=3, config_dir=tmp_path,
+                          overrides={"train": {"n_steps": 2000}})
+    assert (run.env, run.train.n_steps, run.seed) == ({"horizon": 500}, 2000, 3)
+    assert (run.agent.std_0, run.agent.max_kl, run.agent.latent_dim) == (0.7, 0.01, 8)
+
+
+@pytest.mark.parametrize("layer, match", [
+    ({"agent": {"max_kll": 0.01}}, r"unknown VAILConfig keys \['max_kll'\]"),
+    ({"agent": {"std_0": "wide"}}, r"std_0 must be float"),
+    ({"env": {"random_strat": True}}, r"unknown env keys \['random_strat'\].*did you mean 'random_start'"),
+    ({"train": {"n_step": 10}}, r"unknown train keys \['n_step'\].*did you mean 'n_steps'"),
+    ({"train": {"epoch_steps": 1500}}, r"multiple of agent.n_steps_per_fit"),
+    ({"train": {"expert_actions": "guess"}}, r"'dataset' or 'inverse_dynamics'"),
+    ({"trian": {}}, r"unknown sections \['trian'\]"),
+    ({"agent": [1, 2]}, r"agent must be a mapping"),
+])
+def test_malformed_config_raises_naming_the_key(tmp_path, layer, match):
+    shutil.copy(CONFIG_DIR / "defaults.yaml", tmp_path / "defaults.yaml")
+    (tmp_path / "vail").mkdir()
+    (tmp_path / "vail" / "UnitreeH1.walk.yaml").write_text(yaml.safe_dump(layer))
+    with pytest.raises(ConfigError, match=match):
+        load_run_config("UnitreeH1.walk", "vail", config_dir=tmp_path)
+
+
+def test_bad_yaml_missing_file_and_unknown_names_raise(tmp_path):
+    shutil.copy(CONFIG_DIR / "defaults.yaml", tmp_path / "defaults.yaml")
+    (tmp_path / "vail").mkdir()
+    (tmp_path / "vail" / "UnitreeH1.walk.yaml").write_text("agent: {std_0: [0.5\n")
+    with pytest.raises(ConfigError, match="not valid YAML"):
+        load_run_config("UnitreeH1.walk", "vail", config_dir=tmp_path)
+    with pytest.raises(ConfigError, match="no config for vail on UnitreeH1.run"):
+        load_run_config("UnitreeH1.run", "vail", config_dir=tmp_path)
+    with pytest.raises(ConfigError, match="unknown algorithm 'vial'"):
+        load_run_config("UnitreeH1.walk", "vial")
+    with pytest.raises(ValueError, match="Did you mean 'UnitreeH1.walk'"):
+        load_run_config("UnitreeH1.wakl", "vail")
+
+
+# ---- the training loop ---------------------------------------------------------------------------------
+def tiny_run(algorithm="vail", n_steps=1200):
+    overrides = {k: dict(v) for k, v in TINY.items()}
+    overrides["train"]["n_steps"] = n_steps
+    return load_run_config("UnitreeH1.walk", algorithm, seed=7, overrides=overrides)
+
+
+def progress_rows(directory: Path) -> list[dict[str, str]]:
+    with (directory / "progress.csv").open(newline="") as f:
+        return [{k: v for k, v in row.items() if k != "train_steps_per_s"} for row in csv.DictReader(f)]
+
+
+def assert_identical(a, b, path="state"):
+    """Bit-identical nested checkpoint contents (tensors, arrays, dicts, lists, scalars)."""
+    assert type(a) is type(b), path
+    if isinstance(a, torch.Tensor):
+        assert torch.equal(a, b), path
+    elif isinstance(a, dict):
+        assert a.keys() == b.keys(), path
+        for key in a:
+            assert_identical(a[key], b[key], f"{path}.{key}")
+    elif isinstance(a, (list, tuple)):
+        assert len(a) == len(b), path
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
+            assert_identical(x, y, f"{path}[{i}]")
+    else:
+        assert a == b, path
+
+
+def test_resumed_run_reproduces_the_uninterrupted_one_exactly(tmp_path):
+    Trainer(tiny_run(), tmp_path / "straight", progress=False).train()
+    Trainer(tiny_run(n_steps=400), tmp_path / "split", progress=False).train()  # "killed" after one epoch
+    resumed = Trainer(tiny_run(n_steps=1200), tmp_path / "split", resume=True, progress=False)
+    assert (resumed.epoch, resumed.steps) == (1, 400)
+    resumed.train()
+    a, b = load_checkpoint(tmp_path / "straight"), load_checkpoint(tmp_path / "split")
+    assert a["steps"] == b["steps"] == 1200 and a["epoch"] == b["epoch"] == 3
+    assert_identical(a["agent"], b["agent"])  # networks, optimisers, standardizers, generators, counters
+    assert_identical(a["env_rng"], b["env_rng"])
+    assert_identical(a["torch_rng"], b["torch_rng"])
+    assert progress_rows(tmp_path / "straight") == progress_rows(tmp_path / "split")
+    assert len(progress_rows(tmp_path / "split")) == 3
+
+
+def test_resume_drops_log_rows_of_an_unsaved_epoch_and_refuses_mismatches(tmp_path):
+    Trainer(tiny_run(n_steps=400), tmp_path, progress=False).train()
+    with (tmp_path / "progress.csv").open("a") as f:  # an epoch logged, then killed before its checkpoint
+        f.write("800,2" + "," * (len(progress_rows(tmp_path)[0]) - 2) + "\n")
+    Trainer(tiny_run(n_steps=400), tmp_path, resume=True, progress=False)
+    assert [r["step"] for r in progress_rows(tmp_path)] == ["400"]
+    with pytest.raises(FileExistsError, match="--resume"):
+        Trainer(tiny_run(), tmp_path, progress=False)
+    with pytest.raises(ValueError, match="gaifo on UnitreeH1.walk"):
+        Trainer(tiny_run("gaifo"), tmp_path, resume=True, progress=False)
+    with pytest.raises(FileNotFoundError):
+        Trainer(tiny_run(), tmp_path / "nothing", resume=True, progress=False)
+    (tmp_path / "bad").mkdir()
+    (tmp_path / "bad" / "checkpoint.pt").write_bytes(b"not a checkpoint")
+    with pytest.raises(ValueError, match="not a readable checkpoint"):
+        load_checkpoint(tmp_path / "bad")
+
+
+def test_launch_and_evaluate_scripts(tmp_path):
+    config_dir = tmp_path / "configs"
+    (config_dir / "gaifo").mkdir(parents=True)
+    shutil.copy(CONFIG_DIR / "defaults.yaml", config_dir / "defaults.yaml")
+    (config_dir / "gaifo" / "UnitreeH1.walk.yaml").write_text(yaml.safe_dump(TINY))
+    out = tmp_path / "run"
+    launch = [sys.executable, str(REPO / "experiments" / "launch.py"), "--env", "UnitreeH1.walk", "--algo", "gaifo",
+              "--steps", "400", "--out", str(out), "--config-dir", str(config_dir), "--quiet"]
+    done = subprocess.run(launch, capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert (out / "checkpoint.pt").exists() and "L=" in done.stdout
+    again = subprocess.run(launch, capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert again.returncode == 2 and "--resume" in again.stderr
+    evaluate = [sys.executable, str(REPO / "experiments" / "evaluate.py"), str(out / "checkpoint.pt"),
+                "--episodes", "2", "--json", str(tmp_path / "eval.json")]
+    done = subprocess.run(evaluate, capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "deterministic: R=" in done.stdout and "random: R=" in done.stdout
+    result = yaml.safe_load((tmp_path / "eval.json").read_text())
+    assert result["steps"] == 400 and result["deterministic"]["episodes"] == 2
+    assert 1 <= result["deterministic"]["L"] <= 100
+
+
+# ---- inverse-dynamics expert actions ---------------------------------------------------------------------
+@pytest.mark.parametrize("control", ["torque", "pd"])
+def test_inverse_dynamics_recovers_the_controls_of_forward_dynamics(control):
+    env = lm.LocoEnv.make("UnitreeH1.walk", control=control)
+    model, data = env._model, mujoco.MjData(env._model)
+    qpos, qvel = env.dataset_states(np.array([50]))
+    rng = np.random.default_rng(0)
+    data.qpos[:], data.qvel[:] = qpos[0], qvel[0]
+    data.qpos[2] -= 0.003  # feet in contact
+    if control == "torque":
+        data.ctrl[:] = env.action_to_ctrl(rng.uniform(-0.5, 0.5, model.nu))
+    else:  # targets near the joints, so that the servos stay inside their force limits (clipping is lossy)
+        data.ctrl[:] = data.qpos[model.jnt_qposadr[model.actuator_trnid[:, 0]]] + rng.uniform(-0.02, 0.02, model.nu)
+    mujoco.mj_forward(model, data)
+    assert data.ncon > 0
+    limited = model.actuator_forcelimited.astype(bool)
+    assert np.all(np.abs(data.actuator_force[limited]) < model.actuator_forcerange[limited, 1])
+    expected = data.ctrl.copy()
+    data.ctrl[:] = 0
+    mujoco.mj_inverse(model, data)
+    np.testing.assert_allclose(controls_from_inverse(model, data), expected, rtol=1e-6, atol=1e-6)
+
+
+def test_inverse_dynamics_actions_fit_the_dataset_and_refuse_muscles():
+    env = lm.LocoEnv.make("UnitreeH1.walk")
+    actions = inverse_dynamics_actions(env)
+    assert actions.shape == (len(env.create_dataset()["states"]), env.info.action_space.shape[0])
+    assert actions.dtype == np.float32 and np.all(np.abs(actions) <= 1.0)
+    report = inverse_dynamics_report(env)
+    assert 0.0 < report["sink_m"] < 0.01  # the floor carries the weight after a few millimetres
+    assert abs(report["root_vertical_over_weight_median"]) < 0.1
+    assert report["clipped_fraction"] < 0.2
+    with pytest.raises(ValueError, match="affine"):
+        inverse_dynamics_actions(lm.LocoEnv.make("HumanoidMuscle.walk"))
