@@ -27,6 +27,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--steps", type=int, help="total environment steps (default: the config's train.n_steps)")
     parser.add_argument("--epoch-steps", type=int, help="steps between evaluations / checkpoints (default: config)")
+    parser.add_argument("--threads", type=int, help="torch threads of the learner (default: the config's)")
     parser.add_argument("--out", help="run directory (default: runs/<task>/<algo>/seed<N>)")
     parser.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
     parser.add_argument("--config-dir", default=str(CONFIG_DIR), help="directory of the YAML configs")
@@ -45,9 +46,10 @@ def main(argv: list[str] | None = None) -> int:
         train_overrides["n_steps"] = args.steps
     if args.epoch_steps is not None:
         train_overrides["epoch_steps"] = args.epoch_steps
+    agent_overrides = {} if args.threads is None else {"n_threads": args.threads}
     try:
         run = load_run_config(args.env, args.algo, seed=args.seed, config_dir=args.config_dir,
-                              overrides={"train": train_overrides})
+                              overrides={"train": train_overrides, "agent": agent_overrides})
     except (ConfigError, ValueError) as err:
         print(f"error: {err}", file=sys.stderr)
         return 2

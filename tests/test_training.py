@@ -46,7 +46,7 @@ def test_every_task_has_a_valid_config_for_every_algorithm():
     assert len(BASE_TASKS) == 33
     for algorithm in ALGORITHMS:
         files = {p.stem for p in (CONFIG_DIR / algorithm).glob("*.yaml")}
-        assert files == set(BASE_TASKS), f"{algorithm}: missing {set(BASE_TASKS) - files}, extra {files - set(BASE_TASKS)}"
+        assert files == set(BASE_TASKS), (algorithm, set(BASE_TASKS) ^ files)
         for task in BASE_TASKS:
             run = load_run_config(task, algorithm)
             assert run.agent.n_steps_per_fit >= 1 and run.train.epoch_steps % run.agent.n_steps_per_fit == 0
