@@ -6,7 +6,7 @@ PIP := $(PY) -m pip
 STAMP := $(VENV)/.installed
 export MENAGERIE_ROOT ?= $(shell test -d ../shared/menagerie && cd ../shared/menagerie && pwd)
 
-.PHONY: install test demo bench lint clean
+.PHONY: install test demo replay bench lint clean
 
 install: $(STAMP)
 
@@ -28,7 +28,15 @@ test: install
 	$(PY) -m ruff check loco_mujoco baselines tests bench experiments
 	$(PY) -m pytest -q
 
+# A short VAIL training on UnitreeH1.walk (about 3 minutes on 2 cores), then its evaluation against a random policy.
+DEMO_STEPS ?= 500000
 demo: install
+	rm -rf out/demo_vail
+	$(PY) experiments/launch.py --env UnitreeH1.walk --algo vail --steps $(DEMO_STEPS) --out out/demo_vail
+	$(PY) experiments/evaluate.py out/demo_vail/checkpoint.pt --episodes 10
+
+# Replay UnitreeH1.walk's real dataset, print its provenance and quality, write out/demo.mp4.
+replay: install
 	$(PY) -m loco_mujoco.demo
 
 bench: install

@@ -215,3 +215,19 @@ def test_inverse_dynamics_actions_fit_the_dataset_and_refuse_muscles():
     assert report["clipped_fraction"] < 0.2
     with pytest.raises(ValueError, match="affine"):
         inverse_dynamics_actions(lm.LocoEnv.make("HumanoidMuscle.walk"))
+
+
+def test_logger_mirrors_scalars_to_tensorboard(tmp_path):
+    pytest.importorskip("tensorboard")
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    from baselines.common import CSVLogger
+
+    logger = CSVLogger(tmp_path)
+    logger.log(1000, R=1.5, L=20)
+    logger.log(2000, R=2.5, L=30)
+    logger.close()
+    events = EventAccumulator(str(tmp_path / "tensorboard"))
+    events.Reload()
+    assert [(e.step, e.value) for e in events.Scalars("R")] == [(1000, 1.5), (2000, 2.5)]
+    assert [e.value for e in events.Scalars("L")] == [20, 30]
