@@ -34,11 +34,8 @@ def _affine_actuators(model: mujoco.MjModel) -> None:
 
 def _transitions(env: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(frames, qpos, qvel, qacc) of the dataset transitions, in ``create_dataset()`` order."""
-    ds = env.dataset
     qpos, qvel = env.dataset_states()
-    keep = np.ones(ds.n_frames, dtype=bool)
-    keep[ds.split_points[1:] - 1] = False  # the last frame of a trajectory has no successor
-    idx = np.flatnonzero(keep)
+    idx = env.transition_frames()
     return idx, qpos, qvel, (qvel[idx + 1] - qvel[idx]) / env.dt
 
 

@@ -106,14 +106,18 @@ class TrajectoryMixin:
             self._goals_cache = np.stack([np.cos(heading), np.sin(heading), np.hypot(vel[:, 0], vel[:, 1])], axis=1)
         return self._goals_cache
 
+    def transition_frames(self) -> np.ndarray:
+        """Dataset frames that start a transition (every frame but each trajectory's last), in order."""
+        keep = np.ones(self.dataset.n_frames, dtype=bool)
+        keep[self.dataset.split_points[1:] - 1] = False  # the last frame of a trajectory has no successor
+        return np.flatnonzero(keep)
+
     def create_dataset(self) -> dict[str, np.ndarray]:
         """Transitions of the dataset: ``states, next_states, absorbing, last`` (and ``actions`` if it has them)."""
         ds = self.dataset
         obs = self.dataset_observations()
         ends = ds.split_points[1:] - 1
-        keep = np.ones(ds.n_frames, dtype=bool)
-        keep[ends] = False  # the last frame of a trajectory has no successor
-        idx = np.flatnonzero(keep)
+        idx = self.transition_frames()
         last = np.zeros(len(idx), dtype=bool)
         last[np.searchsorted(idx, ends - 1)] = True
         out = {"states": obs[idx], "next_states": obs[idx + 1], "absorbing": np.zeros(len(idx), dtype=bool),
