@@ -23,7 +23,7 @@ from typing import Any
 
 import yaml
 
-from baselines.common.adversarial import AdversarialConfig
+from baselines.common.adversarial import AdversarialConfig, convert_config_value
 
 CONFIG_DIR = Path(__file__).resolve().parent.parent / "configs"
 SECTIONS = ("env", "train", "agent")
@@ -158,19 +158,10 @@ def _dataclass_from_dict(cls: type, values: dict[str, Any], section: str, source
     if unknown:
         raise ConfigError(f"{source}: unknown {section} keys {unknown}{_suggest(unknown[0], hints)}; "
                           f"valid: {', '.join(sorted(hints))}")
-    converted = {}
-    for key, value in values.items():
-        hint = hints[key]
-        if hint is int and isinstance(value, float) and value.is_integer():
-            value = int(value)
-        if hint is float and isinstance(value, (int, str)) and not isinstance(value, bool):
-            try:
-                value = float(value)
-            except ValueError:
-                pass
-        if not isinstance(value, hint) or isinstance(value, bool) and hint is not bool:
-            raise ConfigError(f"{source}: {section}.{key} must be {hint.__name__}, got {value!r}")
-        converted[key] = value
+    try:
+        converted = {key: convert_config_value(section, key, hints[key], value) for key, value in values.items()}
+    except ValueError as err:
+        raise ConfigError(f"{source}: {err}") from None
     return cls(**converted)
 
 

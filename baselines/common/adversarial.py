@@ -85,7 +85,8 @@ class AdversarialConfig:
         unknown = sorted(set(values) - set(hints))
         if unknown:
             raise ValueError(f"unknown {cls.__name__} keys {unknown}; valid keys: {', '.join(sorted(hints))}")
-        config = cls(**{key: _convert(cls.__name__, key, hints[key], value) for key, value in values.items()})
+        config = cls(**{key: convert_config_value(cls.__name__, key, hints[key], value)
+                        for key, value in values.items()})
         config.validate()
         return config
 
@@ -104,7 +105,7 @@ class AdversarialConfig:
         return {k: list(v) if isinstance(v, tuple) else v for k, v in dataclasses.asdict(self).items()}
 
 
-def _convert(config_name: str, key: str, hint: Any, value: Any) -> Any:
+def convert_config_value(config_name: str, key: str, hint: Any, value: Any) -> Any:
     """``value`` as the type ``hint`` of field ``key``, or a ``ValueError`` that names the key."""
     def fail() -> ValueError:
         return ValueError(f"{config_name}.{key} must be {hint.__name__ if isinstance(hint, type) else hint}, "
