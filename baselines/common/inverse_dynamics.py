@@ -26,10 +26,12 @@ def _affine_actuators(model: mujoco.MjModel) -> None:
     affine = (model.actuator_gaintype == mujoco.mjtGain.mjGAIN_FIXED) & \
              np.isin(model.actuator_biastype, (mujoco.mjtBias.mjBIAS_NONE, mujoco.mjtBias.mjBIAS_AFFINE))
     joint_trn = model.actuator_trntype == mujoco.mjtTrn.mjTRN_JOINT
-    if not np.all(affine & joint_trn & (model.actuator_dyntype == mujoco.mjtDyn.mjDYN_NONE)):
-        bad = [model.actuator(i).name for i in np.flatnonzero(~(affine & joint_trn))]
-        raise ValueError(f"inverse-dynamics actions need joint actuators with a fixed gain and affine bias "
-                         f"(motors, PD servos); these are not: {bad[:5]}{' ...' if len(bad) > 5 else ''}")
+    supported = affine & joint_trn & (model.actuator_dyntype == mujoco.mjtDyn.mjDYN_NONE)
+    if not np.all(supported):
+        bad = [model.actuator(i).name for i in np.flatnonzero(~supported)]
+        raise ValueError(f"inverse-dynamics actions need joint actuators without activation dynamics, with a fixed "
+                         f"gain and affine bias (motors, PD servos); these are not: "
+                         f"{bad[:5]}{' ...' if len(bad) > 5 else ''}")
 
 
 def _transitions(env: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
