@@ -28,7 +28,7 @@ test: install
 	$(PY) -m ruff check loco_mujoco baselines tests bench experiments
 	$(PY) -m pytest -q
 
-# A short VAIL training on UnitreeH1.walk (about 3 minutes on 2 cores), then its evaluation against a random policy.
+# A short VAIL training on UnitreeH1.walk (2 min 3 s on 2 cores), then its evaluation against a random policy.
 DEMO_STEPS ?= 500000
 demo: install
 	rm -rf out/demo_vail
