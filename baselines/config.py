@@ -71,10 +71,14 @@ class RunConfig:
     train: TrainConfig
     agent: AdversarialConfig
     sources: list[str]  # the files merged, in order
+    init_from: dict[str, Any] | None = None  # warm start: the checkpoint, its steps and its run config
 
     def to_dict(self) -> dict[str, Any]:
-        return {"task": self.task, "algorithm": self.algorithm, "seed": self.seed, "env": dict(self.env),
-                "train": dataclasses.asdict(self.train), "agent": self.agent.to_dict(), "sources": list(self.sources)}
+        out = {"task": self.task, "algorithm": self.algorithm, "seed": self.seed, "env": dict(self.env),
+               "train": dataclasses.asdict(self.train), "agent": self.agent.to_dict(), "sources": list(self.sources)}
+        if self.init_from is not None:
+            out["init_from"] = self.init_from
+        return out
 
 
 def config_path(task: str, algorithm: str, config_dir: Path = CONFIG_DIR) -> Path:

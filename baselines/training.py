@@ -13,6 +13,7 @@ generators, so it continues exactly as if it had never stopped.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import os
 import time
 from pathlib import Path
@@ -82,16 +83,30 @@ def run_config_from_checkpoint(state: dict[str, Any]) -> RunConfig:
     c = state["run_config"]
     agent = ALGORITHMS[c["algorithm"]].config_class.from_dict(c["agent"])
     return RunConfig(task=c["task"], algorithm=c["algorithm"], seed=int(c["seed"]), env=dict(c["env"]),
-                     train=TrainConfig(**c["train"]), agent=agent, sources=list(c["sources"]))
+                     train=TrainConfig(**c["train"]), agent=agent, sources=list(c["sources"]),
+                     init_from=c.get("init_from"))
 
 
 class Trainer:
-    """Runs (or resumes) ``run`` in ``out_dir``; ``train()`` returns the last evaluation."""
+    """Runs (or resumes) ``run`` in ``out_dir``; ``train()`` returns the last evaluation.
 
-    def __init__(self, run: RunConfig, out_dir: str | Path, resume: bool = False, progress: bool = True):
+    ``init_from`` warm-starts a new run from another run's checkpoint (same task and algorithm): the agent's
+    weights, optimisers, standardizers and discriminator are loaded, the step count continues from there, and
+    the new configuration (e.g. a larger batch per fit) applies from then on. The source is recorded in
+    ``run.init_from``.
+    """
+
+    def __init__(self, run: RunConfig, out_dir: str | Path, resume: bool = False, progress: bool = True,
+                 init_from: str | Path | None = None):
         self.out_dir = Path(out_dir)
         self.checkpoint_path = self.out_dir / CHECKPOINT
-        state = None
+        state = warm = None
+        if resume and init_from is not None:
+            raise ValueError("resume continues a run from its own checkpoint; init_from starts a new one: "
+                             "give one of them")
+        if init_from is not None:
+            warm = load_checkpoint(init_from)
+            run = dataclasses.replace(run, init_from=_warm_start_record(warm, init_from, run))
         if resume:
             state = load_checkpoint(self.checkpoint_path)
             saved = run_config_from_checkpoint(state)
@@ -116,6 +131,8 @@ class Trainer:
             self._restore(state)
             _truncate_csv(self.out_dir / "progress.csv", self.steps)
         else:
+            if warm is not None:
+                self._warm_start(warm)
             (self.out_dir / "config.yaml").write_text(yaml.safe_dump(run.to_dict(), sort_keys=False))
         self.logger = CSVLogger(self.out_dir)
 
@@ -178,12 +195,33 @@ class Trainer:
         torch.save(self.state_dict(), tmp)
         os.replace(tmp, self.checkpoint_path)
 
+    def _warm_start(self, state: dict[str, Any]) -> None:
+        try:
+            self.agent.load_state_dict(state["agent"])
+        except RuntimeError as err:  # tensor shapes differ: another network architecture
+            raise ValueError(f"cannot warm-start from {self.run.init_from['checkpoint']}: its networks do not "
+                             f"match this configuration ({str(err).splitlines()[0]})") from None
+        self.epoch, self.steps, self.wall_s = int(state["epoch"]), int(state["steps"]), float(state["wall_s"])
+
     def _restore(self, state: dict[str, Any]) -> None:
         self.agent.load_state_dict(state["agent"])
         self.env._rng.bit_generator.state = state["env_rng"]
         torch.set_rng_state(state["torch_rng"])
         _set_numpy_global_state(state["numpy_rng"])
         self.epoch, self.steps, self.wall_s = int(state["epoch"]), int(state["steps"]), float(state["wall_s"])
+
+
+def _warm_start_record(state: dict[str, Any], path: str | Path, run: RunConfig) -> dict[str, Any]:
+    """What ``RunConfig.init_from`` records of the source checkpoint; raises if it cannot seed ``run``."""
+    source = run_config_from_checkpoint(state)
+    if (source.task, source.algorithm) != (run.task, run.algorithm):
+        raise ValueError(f"{path} is {source.algorithm} on {source.task}; it cannot warm-start {run.algorithm} "
+                         f"on {run.task}")
+    if run.train.n_steps <= int(state["steps"]):
+        raise ValueError(f"{path} has already trained {int(state['steps']):,} steps; train.n_steps "
+                         f"({run.train.n_steps:,}) must be larger to go on from it")
+    return {"checkpoint": str(Path(path).resolve()), "epoch": int(state["epoch"]), "steps": int(state["steps"]),
+            "run_config": source.to_dict()}
 
 
 def _numpy_global_state() -> dict[str, Any]:

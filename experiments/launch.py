@@ -30,6 +30,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--threads", type=int, help="torch threads of the learner (default: the config's)")
     parser.add_argument("--out", help="run directory (default: runs/<task>/<algo>/seed<N>)")
     parser.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
+    parser.add_argument("--init-from", metavar="CHECKPOINT",
+                        help="warm start: a new run in --out that loads this checkpoint's agent (same task and "
+                             "algorithm) and continues its step count under the current configuration")
     parser.add_argument("--config-dir", default=str(CONFIG_DIR), help="directory of the YAML configs")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     return parser.parse_args(argv)
@@ -55,7 +58,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     out = Path(args.out or Path("runs") / args.env / args.algo / f"seed{args.seed}")
     try:
-        trainer = Trainer(run, out, resume=args.resume, progress=not args.quiet)
+        trainer = Trainer(run, out, resume=args.resume, progress=not args.quiet, init_from=args.init_from)
     except (FileExistsError, FileNotFoundError, ValueError) as err:
         print(f"error: {err}", file=sys.stderr)
         return 2

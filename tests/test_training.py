@@ -158,6 +158,35 @@ def test_resume_drops_log_rows_of_an_unsaved_epoch_and_refuses_mismatches(tmp_pa
         load_checkpoint(tmp_path / "bad")
 
 
+def test_warm_start_loads_the_agent_continues_the_step_count_and_records_its_source(tmp_path):
+    Trainer(tiny_run(n_steps=400), tmp_path / "source", progress=False).train()
+    source = load_checkpoint(tmp_path / "source")
+    run = tiny_run(n_steps=800)
+    run.agent.n_steps_per_fit = 400  # the kind of change a warm start is for: a larger batch per fit
+    warm = Trainer(run, tmp_path / "warm", progress=False, init_from=tmp_path / "source")
+    assert (warm.epoch, warm.steps) == (1, 400)
+    loaded = {k: v for k, v in warm.agent.state_dict().items() if k != "config"}
+    assert_identical(loaded, {k: v for k, v in source["agent"].items() if k != "config"})  # every tensor, loaded
+    assert warm.run.init_from["steps"] == 400 and warm.run.init_from["run_config"]["agent"]["n_steps_per_fit"] == 200
+    warm.train()
+    rows = progress_rows(tmp_path / "warm")
+    assert [r["step"] for r in rows] == ["800"]  # only its own epochs, on the continued step count
+    saved = load_checkpoint(tmp_path / "warm")
+    assert saved["run_config"]["init_from"]["checkpoint"] == str((tmp_path / "source").resolve())
+    assert saved["run_config"]["agent"]["n_steps_per_fit"] == 400
+    assert "init_from" in yaml.safe_load((tmp_path / "warm" / "config.yaml").read_text())
+    with pytest.raises(ValueError, match="vail on UnitreeH1.walk; it cannot warm-start gaifo"):
+        Trainer(tiny_run("gaifo", n_steps=800), tmp_path / "other", progress=False, init_from=tmp_path / "source")
+    with pytest.raises(ValueError, match="must be larger"):
+        Trainer(tiny_run(n_steps=400), tmp_path / "short", progress=False, init_from=tmp_path / "source")
+    with pytest.raises(ValueError, match="give one of them"):
+        Trainer(tiny_run(n_steps=800), tmp_path / "warm", resume=True, progress=False, init_from=tmp_path / "source")
+    bigger = tiny_run(n_steps=800)
+    bigger.agent.policy_hidden = (64,)
+    with pytest.raises(ValueError, match="networks do not match"):
+        Trainer(bigger, tmp_path / "bigger", progress=False, init_from=tmp_path / "source")
+
+
 def test_launch_and_evaluate_scripts(tmp_path):
     config_dir = tmp_path / "configs"
     (config_dir / "gaifo").mkdir(parents=True)
