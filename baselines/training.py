@@ -1,7 +1,8 @@
 """Train an adversarial imitation agent epoch by epoch, with evaluation, logging and exact checkpoints.
 
 A run directory holds ``config.yaml`` (the resolved configuration), ``checkpoint.pt`` (the latest epoch),
-``progress.csv`` (one row per epoch: evaluation and training statistics) and ``tensorboard/``.
+``progress.csv`` (one row per epoch: evaluation and training statistics) and ``tensorboard/``; a warm-started
+run also keeps ``init_from_progress.csv``, its source's log up to the checkpoint it started from.
 
 One epoch is one ``Core.learn`` call of ``train.epoch_steps`` steps (it ends on a fit), then a deterministic
 evaluation on a separate environment re-seeded with ``train.eval_seed`` (the same start states every epoch),
@@ -15,6 +16,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import os
+import shutil
 import time
 from pathlib import Path
 from typing import Any
@@ -32,6 +34,7 @@ from baselines.config import RunConfig
 
 CHECKPOINT = "checkpoint.pt"
 CHECKPOINT_FORMAT = 1
+INIT_FROM_PROGRESS = "init_from_progress.csv"  # a warm-started run's copy of its source's log
 
 
 def make_env(run: RunConfig, seed: int) -> Any:
@@ -202,6 +205,10 @@ class Trainer:
             raise ValueError(f"cannot warm-start from {self.run.init_from['checkpoint']}: its networks do not "
                              f"match this configuration ({str(err).splitlines()[0]})") from None
         self.epoch, self.steps, self.wall_s = int(state["epoch"]), int(state["steps"]), float(state["wall_s"])
+        source_log = Path(self.run.init_from["checkpoint"]).parent / "progress.csv"
+        if source_log.exists():  # the source's curve up to the checkpoint, so the whole history stays together
+            shutil.copy(source_log, self.out_dir / INIT_FROM_PROGRESS)
+            _truncate_csv(self.out_dir / INIT_FROM_PROGRESS, self.steps)
 
     def _restore(self, state: dict[str, Any]) -> None:
         self.agent.load_state_dict(state["agent"])
@@ -220,7 +227,8 @@ def _warm_start_record(state: dict[str, Any], path: str | Path, run: RunConfig) 
     if run.train.n_steps <= int(state["steps"]):
         raise ValueError(f"{path} has already trained {int(state['steps']):,} steps; train.n_steps "
                          f"({run.train.n_steps:,}) must be larger to go on from it")
-    return {"checkpoint": str(Path(path).resolve()), "epoch": int(state["epoch"]), "steps": int(state["steps"]),
+    path = Path(path) / CHECKPOINT if Path(path).is_dir() else Path(path)
+    return {"checkpoint": str(path.resolve()), "epoch": int(state["epoch"]), "steps": int(state["steps"]),
             "run_config": source.to_dict()}
 
 

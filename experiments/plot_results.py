@@ -4,7 +4,8 @@
 
 Each run directory's ``progress.csv`` (one row per epoch: deterministic evaluation over 10 episodes) is
 copied, and the episode length L and the undiscounted task return R are plotted against environment steps,
-with the uniformly random policy's figures (same evaluation seed) as dashed lines.
+with the uniformly random policy's figures (same evaluation seed) as dashed lines. A run warm-started with
+``launch.py --init-from`` is named ``<task>_<algo>_from<N>M`` and drawn after its source's curve.
 """
 
 from __future__ import annotations
@@ -18,7 +19,12 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # run from a checkout without installing
 
-from baselines.training import load_checkpoint, make_env, run_config_from_checkpoint  # noqa: E402
+from baselines.training import (  # noqa: E402
+    INIT_FROM_PROGRESS,
+    load_checkpoint,
+    make_env,
+    run_config_from_checkpoint,
+)
 from experiments.evaluate import random_policy_statistics  # noqa: E402
 
 
@@ -26,6 +32,19 @@ def read_progress(path: Path) -> dict[str, list[float]]:
     with path.open(newline="") as f:
         rows = list(csv.DictReader(f))
     return {key: [float(r[key]) if r[key] not in ("", None) else float("nan") for r in rows] for key in rows[0]}
+
+
+def config_changes(before: dict, after: dict) -> dict[str, tuple]:
+    """``{"section.key": (old, new)}`` for the env / train / agent settings that differ (threads and length aside)."""
+    ignored = {"agent.n_threads", "train.n_steps"}
+    changes = {}
+    for section in ("env", "train", "agent"):
+        old, new = before.get(section, {}), after.get(section, {})
+        for key in sorted(set(old) | set(new)):
+            name = f"{section}.{key}"
+            if name not in ignored and old.get(key) != new.get(key):
+                changes[name] = (old.get(key), new.get(key))
+    return changes
 
 
 def plot_run(run_dir: Path, out_dir: Path) -> Path:
@@ -37,6 +56,11 @@ def plot_run(run_dir: Path, out_dir: Path) -> Path:
     state = load_checkpoint(run_dir)
     run = run_config_from_checkpoint(state)
     stem = f"{run.task}_{run.algorithm}"
+    source = None
+    if run.init_from is not None:  # warm-started: its own name, and the source's curve drawn before it
+        stem += f"_from{run.init_from['steps'] / 1e6:g}M"
+        if (run_dir / INIT_FROM_PROGRESS).exists():
+            source = read_progress(run_dir / INIT_FROM_PROGRESS)
     out_dir.mkdir(parents=True, exist_ok=True)
     shutil.copy(run_dir / "progress.csv", out_dir / f"{stem}.csv")
     progress = read_progress(run_dir / "progress.csv")
@@ -48,6 +72,10 @@ def plot_run(run_dir: Path, out_dir: Path) -> Path:
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.6))
     for ax, key, label in zip(axes, ("L", "R", "disc_reward_mean"),
                               ("episode length L", "task return R", "discriminator reward / step"), strict=True):
+        if source is not None:
+            ax.plot([s / 1e6 for s in source["step"]], source[key], color="tab:grey", alpha=0.7,
+                    label="before the warm start")
+            ax.axvline(run.init_from["steps"] / 1e6, color="black", linewidth=0.8, linestyle=":")
         ax.plot(steps, progress[key], label=run.algorithm.upper() if run.algorithm != "gaifo" else "GAIfO")
         if key in random:
             ax.axhline(random[key], color="grey", linestyle="--", label="random policy")
@@ -55,8 +83,13 @@ def plot_run(run_dir: Path, out_dir: Path) -> Path:
         ax.set_title(label)
         ax.grid(alpha=0.3)
     axes[0].legend()
-    fig.suptitle(f"{run.algorithm} on {run.task} ({run.env.get('control', 'default')} control), seed {run.seed}: "
-                 f"deterministic evaluation, {run.train.n_eval_episodes} episodes per point")
+    title = (f"{run.algorithm} on {run.task} ({run.env.get('control', 'default')} control), seed {run.seed}: "
+             f"deterministic evaluation, {run.train.n_eval_episodes} episodes per point")
+    if run.init_from is not None:
+        changes = ", ".join(f"{k} {a}\u2192{b}" for k, (a, b) in config_changes(run.init_from["run_config"],
+                                                                              run.to_dict()).items())
+        title += f"\nwarm start at {run.init_from['steps'] / 1e6:g}M steps: {changes or 'same configuration'}"
+    fig.suptitle(title)
     fig.tight_layout()
     png = out_dir / f"{stem}.png"
     fig.savefig(png, dpi=90)

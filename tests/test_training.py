@@ -171,8 +171,14 @@ def test_warm_start_loads_the_agent_continues_the_step_count_and_records_its_sou
     warm.train()
     rows = progress_rows(tmp_path / "warm")
     assert [r["step"] for r in rows] == ["800"]  # only its own epochs, on the continued step count
+    with (tmp_path / "warm" / "init_from_progress.csv").open(newline="") as f:  # the source's log, kept beside
+        assert [r["step"] for r in csv.DictReader(f)] == ["400"]
+    from experiments.plot_results import config_changes
+
+    assert config_changes(warm.run.init_from["run_config"], warm.run.to_dict()) == {
+        "agent.n_steps_per_fit": (200, 400)}
     saved = load_checkpoint(tmp_path / "warm")
-    assert saved["run_config"]["init_from"]["checkpoint"] == str((tmp_path / "source").resolve())
+    assert saved["run_config"]["init_from"]["checkpoint"] == str((tmp_path / "source" / "checkpoint.pt").resolve())
     assert saved["run_config"]["agent"]["n_steps_per_fit"] == 400
     assert "init_from" in yaml.safe_load((tmp_path / "warm" / "config.yaml").read_text())
     with pytest.raises(ValueError, match="vail on UnitreeH1.walk; it cannot warm-start gaifo"):
