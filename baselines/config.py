@@ -132,6 +132,23 @@ def load_run_config(task: str, algorithm: str, seed: int = 0, config_dir: str | 
                      sources=[str(defaults_file), str(task_file)])
 
 
+def parse_overrides(items: list[str]) -> dict[str, dict[str, Any]]:
+    """``["agent.n_steps_per_fit=5000", ...]`` as override sections; values are read as YAML (numbers, lists)."""
+    overrides: dict[str, dict[str, Any]] = {s: {} for s in SECTIONS}
+    for item in items:
+        name, sep, text = item.partition("=")
+        section, dot, key = name.strip().partition(".")
+        if not sep or not dot or not key:
+            raise ConfigError(f"override {item!r} must look like SECTION.KEY=VALUE, e.g. agent.max_kl=0.01")
+        if section not in SECTIONS:
+            raise ConfigError(f"override {item!r}: unknown section {section!r}; valid: {', '.join(SECTIONS)}")
+        try:
+            overrides[section][key] = yaml.safe_load(text)
+        except yaml.YAMLError as err:
+            raise ConfigError(f"override {item!r}: the value is not valid YAML ({err})") from None
+    return overrides
+
+
 def read_yaml(path: Path, allowed: tuple[str, ...]) -> dict[str, Any]:
     """A YAML mapping with only ``allowed`` top-level keys (an empty file is an empty mapping)."""
     try:

@@ -16,7 +16,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # run from a checkout without installing
 
 from baselines import ALGORITHMS  # noqa: E402
-from baselines.config import CONFIG_DIR, ConfigError, load_run_config  # noqa: E402
+from baselines.config import CONFIG_DIR, ConfigError, load_run_config, parse_overrides  # noqa: E402
 from baselines.training import Trainer  # noqa: E402
 
 
@@ -30,6 +30,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--threads", type=int, help="torch threads of the learner (default: the config's)")
     parser.add_argument("--out", help="run directory (default: runs/<task>/<algo>/seed<N>)")
     parser.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
+    parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                        help="override one config value (repeatable), e.g. --set agent.n_steps_per_fit=5000")
     parser.add_argument("--init-from", metavar="CHECKPOINT",
                         help="warm start: a new run in --out that loads this checkpoint's agent (same task and "
                              "algorithm) and continues its step count under the current configuration")
@@ -44,15 +46,19 @@ def _stop_on_sigterm(signum: int, frame: object) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
-    train_overrides = {}
-    if args.steps is not None:
-        train_overrides["n_steps"] = args.steps
-    if args.epoch_steps is not None:
-        train_overrides["epoch_steps"] = args.epoch_steps
-    agent_overrides = {} if args.threads is None else {"n_threads": args.threads}
+    if args.resume and (args.set or args.epoch_steps is not None):
+        print("error: --resume continues with the checkpoint's own configuration (only --steps may extend it); "
+              "to change settings, start a new run from it with --init-from CHECKPOINT --set ...", file=sys.stderr)
+        return 2
     try:
-        run = load_run_config(args.env, args.algo, seed=args.seed, config_dir=args.config_dir,
-                              overrides={"train": train_overrides, "agent": agent_overrides})
+        overrides = parse_overrides(args.set)
+        if args.steps is not None:
+            overrides["train"]["n_steps"] = args.steps
+        if args.epoch_steps is not None:
+            overrides["train"]["epoch_steps"] = args.epoch_steps
+        if args.threads is not None:
+            overrides["agent"]["n_threads"] = args.threads
+        run = load_run_config(args.env, args.algo, seed=args.seed, config_dir=args.config_dir, overrides=overrides)
     except (ConfigError, ValueError) as err:
         print(f"error: {err}", file=sys.stderr)
         return 2

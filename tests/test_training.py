@@ -21,7 +21,7 @@ from baselines.common.inverse_dynamics import (  # noqa: E402
     inverse_dynamics_actions,
     inverse_dynamics_report,
 )
-from baselines.config import CONFIG_DIR, ConfigError, load_run_config  # noqa: E402
+from baselines.config import CONFIG_DIR, ConfigError, load_run_config, parse_overrides  # noqa: E402
 from baselines.training import Trainer, load_checkpoint  # noqa: E402
 from loco_mujoco.core.task_names import DATASET_TYPES, list_tasks  # noqa: E402
 
@@ -94,6 +94,18 @@ def test_bad_yaml_missing_file_and_unknown_names_raise(tmp_path):
         load_run_config("UnitreeH1.walk", "vial")
     with pytest.raises(ValueError, match="Did you mean 'UnitreeH1.walk'"):
         load_run_config("UnitreeH1.wakl", "vail")
+
+
+def test_command_line_overrides_are_parsed_and_validated():
+    overrides = parse_overrides(["agent.n_steps_per_fit=5000", "agent.policy_hidden=[64, 32]", "env.horizon=500"])
+    run = load_run_config("UnitreeH1.walk", "vail", overrides=overrides)
+    assert run.agent.n_steps_per_fit == 5000 and run.agent.policy_hidden == (64, 32) and run.env["horizon"] == 500
+    for bad, match in [("agent.max_kl", "SECTION.KEY=VALUE"), ("max_kl=0.1", "SECTION.KEY=VALUE"),
+                       ("policy.max_kl=0.1", "unknown section 'policy'"), ("agent.max_kl=[0.1", "not valid YAML")]:
+        with pytest.raises(ConfigError, match=match):
+            parse_overrides([bad])
+    with pytest.raises(ConfigError, match="max_kll"):
+        load_run_config("UnitreeH1.walk", "vail", overrides=parse_overrides(["agent.max_kll=0.1"]))
 
 
 # ---- the training loop ---------------------------------------------------------------------------------
@@ -206,6 +218,9 @@ def test_launch_and_evaluate_scripts(tmp_path):
     assert (out / "checkpoint.pt").exists() and "L=" in done.stdout
     again = subprocess.run(launch, capture_output=True, text=True, cwd=tmp_path, timeout=300)
     assert again.returncode == 2 and "--resume" in again.stderr
+    changed = subprocess.run([*launch, "--resume", "--set", "agent.max_kl=0.1"], capture_output=True, text=True,
+                             cwd=tmp_path, timeout=300)
+    assert changed.returncode == 2 and "--init-from" in changed.stderr
     evaluate = [sys.executable, str(REPO / "experiments" / "evaluate.py"), str(out / "checkpoint.pt"),
                 "--episodes", "2", "--json", str(tmp_path / "eval.json")]
     done = subprocess.run(evaluate, capture_output=True, text=True, cwd=tmp_path, timeout=300)
