@@ -96,11 +96,12 @@ class Trainer:
     ``init_from`` warm-starts a new run from another run's checkpoint (same task and algorithm): the agent's
     weights, optimisers, standardizers and discriminator are loaded, the step count continues from there, and
     the new configuration (e.g. a larger batch per fit) applies from then on. The source is recorded in
-    ``run.init_from``.
+    ``run.init_from``. ``n_threads`` replaces a resumed run's torch thread count (results then match the
+    uninterrupted run only to floating-point reduction order).
     """
 
     def __init__(self, run: RunConfig, out_dir: str | Path, resume: bool = False, progress: bool = True,
-                 init_from: str | Path | None = None):
+                 init_from: str | Path | None = None, n_threads: int | None = None):
         self.out_dir = Path(out_dir)
         self.checkpoint_path = self.out_dir / CHECKPOINT
         state = warm = None
@@ -116,7 +117,9 @@ class Trainer:
             if (saved.task, saved.algorithm, saved.seed) != (run.task, run.algorithm, run.seed):
                 raise ValueError(f"{self.checkpoint_path} is {saved.algorithm} on {saved.task} seed {saved.seed}, "
                                  f"not {run.algorithm} on {run.task} seed {run.seed}")
-            saved.train.n_steps = run.train.n_steps  # the one thing a resume may change: how long to go on
+            saved.train.n_steps = run.train.n_steps  # what a resume may change: how long to go on,
+            if n_threads is not None:  # and how many torch threads the learner uses (speed, not the algorithm)
+                saved.agent.n_threads = n_threads
             run = saved
         elif self.checkpoint_path.exists():
             raise FileExistsError(f"{self.checkpoint_path} exists: pass --resume to continue that run, "

@@ -64,7 +64,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     out = Path(args.out or Path("runs") / args.env / args.algo / f"seed{args.seed}")
     try:
-        trainer = Trainer(run, out, resume=args.resume, progress=not args.quiet, init_from=args.init_from)
+        trainer = Trainer(run, out, resume=args.resume, progress=not args.quiet, init_from=args.init_from,
+                          n_threads=args.threads)
     except (FileExistsError, FileNotFoundError, ValueError) as err:
         print(f"error: {err}", file=sys.stderr)
         return 2

@@ -156,8 +156,9 @@ def test_resume_drops_log_rows_of_an_unsaved_epoch_and_refuses_mismatches(tmp_pa
     Trainer(tiny_run(n_steps=400), tmp_path, progress=False).train()
     with (tmp_path / "progress.csv").open("a") as f:  # an epoch logged, then killed before its checkpoint
         f.write("800,2" + "," * (len(progress_rows(tmp_path)[0]) - 2) + "\n")
-    Trainer(tiny_run(n_steps=400), tmp_path, resume=True, progress=False)
+    resumed = Trainer(tiny_run(n_steps=400), tmp_path, resume=True, progress=False, n_threads=2)
     assert [r["step"] for r in progress_rows(tmp_path)] == ["400"]
+    assert resumed.run.agent.n_threads == 2 and resumed.run.train.n_steps == 400  # the two things a resume sets
     with pytest.raises(FileExistsError, match="--resume"):
         Trainer(tiny_run(), tmp_path, progress=False)
     with pytest.raises(ValueError, match="gaifo on UnitreeH1.walk"):
