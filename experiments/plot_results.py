@@ -19,6 +19,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # run from a checkout without installing
 
+from baselines.config import SECTIONS  # noqa: E402
 from baselines.training import (  # noqa: E402
     INIT_FROM_PROGRESS,
     load_checkpoint,
@@ -38,7 +39,7 @@ def config_changes(before: dict, after: dict) -> dict[str, tuple]:
     """``{"section.key": (old, new)}`` for the env / train / agent settings that differ (threads and length aside)."""
     ignored = {"agent.n_threads", "train.n_steps"}
     changes = {}
-    for section in ("env", "train", "agent"):
+    for section in SECTIONS:
         old, new = before.get(section, {}), after.get(section, {})
         for key in sorted(set(old) | set(new)):
             name = f"{section}.{key}"

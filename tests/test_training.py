@@ -23,6 +23,7 @@ from baselines.common.inverse_dynamics import (  # noqa: E402
 )
 from baselines.config import CONFIG_DIR, ConfigError, load_run_config, parse_overrides  # noqa: E402
 from baselines.training import Trainer, load_checkpoint  # noqa: E402
+from experiments.plot_results import config_changes  # noqa: E402
 from loco_mujoco.core.task_names import DATASET_TYPES, list_tasks  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
@@ -186,8 +187,6 @@ def test_warm_start_loads_the_agent_continues_the_step_count_and_records_its_sou
     assert [r["step"] for r in rows] == ["800"]  # only its own epochs, on the continued step count
     with (tmp_path / "warm" / "init_from_progress.csv").open(newline="") as f:  # the source's log, kept beside
         assert [r["step"] for r in csv.DictReader(f)] == ["400"]
-    from experiments.plot_results import config_changes
-
     assert config_changes(warm.run.init_from["run_config"], warm.run.to_dict()) == {
         "agent.n_steps_per_fit": (200, 400)}
     saved = load_checkpoint(tmp_path / "warm")
