@@ -1,15 +1,21 @@
-"""Evaluate a trained agent: ``python experiments/evaluate.py runs/UnitreeH1.walk/vail/seed0/checkpoint.pt``.
+"""Evaluate a trained agent under the evaluation protocol, or list every task's reference returns.
 
-Rebuilds the environment and agent from the checkpoint's own configuration, runs ``--episodes`` deterministic
-episodes (and as many with a uniform random policy, for comparison) and prints R (undiscounted return), J
-(discounted), L (episode length) and the mean task reward per step. ``--record`` writes an mp4 of the first
-episode (needs offscreen rendering, e.g. ``MUJOCO_GL=egl``).
+    python experiments/evaluate.py runs/UnitreeH1.walk_vail/checkpoint.pt [--metrics] [--record] [--json F]
+    python experiments/evaluate.py --references [TASK ...]
+
+The protocol (loco_mujoco.evaluation.protocol): 50 episodes from dataset start states drawn with seed 12345,
+the deterministic policy (``--stochastic`` adds the stochastic one). Every figure is a mean with a 95%
+bootstrap interval and an interquartile mean (IQM). The normalised score puts a uniformly random policy at 0
+and the expert (the task reward its dataset frames earn, over the horizon) at 100, under the run's own env
+settings. ``--metrics`` adds trajectory distances, gait and state-distribution metrics beside the expert's;
+``--record`` writes an H.264 mp4 of the first episode beside a translucent replay of the reference motion.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -17,91 +23,158 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # run from a ch
 
 import numpy as np  # noqa: E402
 
-from baselines.common.evaluation import episode_statistics, evaluate  # noqa: E402
-from baselines.training import build, load_checkpoint, make_env, run_config_from_checkpoint  # noqa: E402
+from loco_mujoco.evaluation import protocol  # noqa: E402
+from loco_mujoco.evaluation.intervals import format_summary, summarize  # noqa: E402
+from loco_mujoco.evaluation.references import References, references, stand_still_scores  # noqa: E402
+
+METRIC_UNITS = {"euclidean": "mean per-step distance", "dtw": "RMS per-step distance along the DTW path",
+                "frechet": "discrete Frechet distance", "joints": "rad", "sites": "m"}
+GAIT_UNITS = {"forward_speed": "m/s", "cadence": "steps/min", "stride_length": "m", "duty_factor": "fraction",
+              "double_support": "fraction", "foot_clearance": "m", "foot_sliding": "m/s",
+              "symmetry": "index, 0 = symmetric"}
+DISTRIBUTION_UNITS = {"mmd": "RBF MMD, 0 = same", "sliced_wasserstein": "pooled std units, 0 = same",
+                      "classifier_auc": "0.5 = indistinguishable"}
 
 
-def random_policy_statistics(env, n_episodes: int, seed: int) -> dict[str, float]:
-    """R, J, L and task reward of uniformly random actions on ``env`` (re-seeded with ``seed``)."""
-    env.seed(seed)
-    rng = np.random.default_rng(seed)
-    low, high = env.info.action_space.low, env.info.action_space.high
-    dataset = []
-    for _ in range(n_episodes):
-        env.reset()
-        for t in range(env.info.horizon):
-            obs, reward, absorbing, _ = env.step(rng.uniform(low, high))
-            last = absorbing or t == env.info.horizon - 1
-            dataset.append((None, None, reward, obs, absorbing, last))
-            if last:
-                break
-    return episode_statistics(dataset, env.info.gamma)
+def tasks_with_data() -> list[str]:
+    """Every bare task name (real dataset) whose dataset has a recipe."""
+    from loco_mujoco import list_tasks
+    from loco_mujoco.core.task_names import DATASET_TYPES, environment_class, parse_task_name
+    from loco_mujoco.datasets.registry import variants
+
+    names = []
+    for name in list_tasks():
+        if name.split(".")[-1] in DATASET_TYPES:
+            continue
+        parsed = parse_task_name(name)
+        try:
+            if variants(environment_class(parsed.env), parsed.task):
+                names.append(name)
+        except Exception:  # noqa: BLE001  (no recipe for this task)
+            continue
+    return names
 
 
-def record_episode(agent, env, path: Path, seed: int, max_steps: int = 1000) -> int:
-    """Write an mp4 of one deterministic episode; returns the number of frames."""
-    from loco_mujoco.demo import write_video
+def print_references(tasks: list[str], refresh: bool) -> list[dict]:
+    """One line per task: expert, random, zero-action and hold-pose returns and the stand-still scores."""
+    from tqdm import tqdm
 
-    env.seed(seed)
-    obs = env.reset()
-    frames = [env.render_rgb()]
-    with agent.policy.evaluation_mode(deterministic=True, seed=seed):
-        for _ in range(max_steps):
-            obs, _, absorbing, _ = env.step(agent.policy.draw_action(obs))
-            frames.append(env.render_rgb())
-            if absorbing:
-                break
-    write_video(frames, path, fps=round(1.0 / env.dt))
-    return len(frames)
+    rows = []
+    print(f"{'task':<34}{'expert R':>10}{'random R':>10}{'random L':>10}{'zero R':>9}{'zero L':>8}"
+          f"{'hold R':>9}{'hold L':>8}{'zero score':>12}{'hold score':>12}")
+    for task in tqdm(tasks, desc="references", unit="task", leave=False):
+        refs = references(task, refresh=refresh)
+        s = stand_still_scores(refs)
+        tqdm.write(f"{task:<34}{refs.expert_return:10.1f}{refs.random_return:10.1f}{refs.random_length:10.1f}"
+                   f"{refs.zero_return:9.1f}{refs.zero_length:8.0f}{refs.hold_return:9.1f}{refs.hold_length:8.0f}"
+                   f"{s['zero']:12.2f}{s['hold']:12.2f}")
+        rows.append({"task": task, **refs.__dict__, "stand_still_scores": s})
+    return rows
+
+
+def score_block(refs: References, returns: np.ndarray, seed: int) -> dict:
+    """The normalised score of ``returns`` with its interval."""
+    return summarize(refs.normalized_score(returns), seed=seed)
+
+
+def print_metrics(m: dict) -> None:
+    print("imitation metrics (agent vs. expert reference; mean [95% CI] over episodes):")
+    for name, values in m["trajectory"].items():
+        kind, part = name.rsplit("_", 1)
+        vals = np.asarray(values, dtype=float)
+        s = summarize(vals[np.isfinite(vals)], seed=0) if np.any(np.isfinite(vals)) else None
+        text = format_summary(s, 3) if s else "n/a"
+        print(f"  {name:<22}{text:<40} expert 0 by definition  ({METRIC_UNITS[kind]}, {METRIC_UNITS[part]})")
+    print(f"  {'gait':<22}{'agent':>12}{'expert':>12}")
+    for key, value in m["gait"]["agent"].items():
+        print(f"  {key:<22}{value:12.3f}{m['gait']['expert'][key]:12.3f}  ({GAIT_UNITS[key]})")
+    print(f"  {'state distribution':<22}{'agent':>12}{'expert':>12}  (expert: half the dataset vs. the other half)")
+    for key, value in m["distribution"]["agent"].items():
+        expert = m["distribution"]["expert"].get(key, math.nan)
+        print(f"  {key:<22}{value:12.3f}{expert:12.3f}  ({DISTRIBUTION_UNITS[key]})")
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("checkpoint", help="checkpoint.pt (or its run directory)")
-    parser.add_argument("--episodes", type=int, default=10)
-    parser.add_argument("--seed", type=int, default=None, help="evaluation seed (default: the run's eval_seed)")
+    parser.add_argument("checkpoint", nargs="?", help="checkpoint.pt (or its run directory)")
+    parser.add_argument("--episodes", type=int, default=protocol.EPISODES)
+    parser.add_argument("--seed", type=int, default=protocol.SEED, help=f"evaluation seed (default {protocol.SEED})")
     parser.add_argument("--stochastic", action="store_true", help="also evaluate the stochastic policy")
-    parser.add_argument("--no-random", action="store_true", help="skip the random-policy comparison")
+    parser.add_argument("--metrics", action="store_true", help="trajectory, gait and distribution metrics")
     parser.add_argument("--record", nargs="?", const="", default=None,
-                        help="write an mp4 of one episode (default path: beside the checkpoint)")
+                        help="write an H.264 mp4 of the first episode beside the reference motion "
+                             "(default: <run dir>/<run dir name>_episode0.mp4)")
     parser.add_argument("--json", help="also write the results to this JSON file")
+    parser.add_argument("--references", nargs="*", metavar="TASK",
+                        help="list the reference returns of these tasks (default: every task with data)")
+    parser.add_argument("--refresh", action="store_true", help="recompute cached references")
     args = parser.parse_args(argv)
+    if args.episodes < 1:
+        parser.error(f"--episodes must be at least 1, got {args.episodes}")
+    if args.references is not None:
+        rows = print_references(args.references or tasks_with_data(), args.refresh)
+        if args.json:
+            Path(args.json).write_text(json.dumps(rows, indent=1))
+        return 0
+    if not args.checkpoint:
+        parser.error("give a checkpoint to evaluate, or --references")
+
+    from baselines.common.evaluation import evaluate_agent
+    from baselines.training import build, load_checkpoint, make_env, run_config_from_checkpoint
+
     try:
         state = load_checkpoint(args.checkpoint)
     except (FileNotFoundError, ValueError) as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
     run = run_config_from_checkpoint(state)
-    seed = run.train.eval_seed if args.seed is None else args.seed
     _, agent = build(run)
     agent.load_state_dict(state["agent"])
-    env = make_env(run, seed=seed)
+    env = make_env(run, seed=args.seed)
     print(f"{run.algorithm} on {run.task}, seed {run.seed}: epoch {state['epoch']}, {state['steps']:,} training steps")
+    refs = references(run.task, run.env, progress=True)
+    print(f"references ({run.task}, {', '.join(f'{k}={v}' for k, v in run.env.items())}): expert R "
+          f"{refs.expert_return:.1f}, random R {refs.random_return:.1f} (L {refs.random_length:.1f}), "
+          f"zero action R {refs.zero_return:.1f}, hold pose R {refs.hold_return:.1f}")
 
-    results = {}
-    env.seed(seed)
-    results["deterministic"] = evaluate(agent, env, n_episodes=args.episodes, deterministic=True, seed=seed)
+    results: dict = {"task": run.task, "algorithm": run.algorithm, "seed": run.seed, "steps": state["steps"],
+                     "protocol": {"episodes": args.episodes, "seed": args.seed}, "references": refs.__dict__}
+    evaluations = {"deterministic": evaluate_agent(agent, env, args.episodes, True, args.seed,
+                                                   record=args.metrics or args.record is not None, progress=True)}
     if args.stochastic:
-        env.seed(seed)
-        results["stochastic"] = evaluate(agent, env, n_episodes=args.episodes, deterministic=False, seed=seed)
-    if not args.no_random:
-        results["random"] = random_policy_statistics(env, args.episodes, seed)
-    for name, r in results.items():
-        print(f"{name:>13}: R={r['R']:9.2f}  J={r['J']:8.2f}  L={r['L']:7.1f}  task_reward={r['task_reward']:.4f}  "
-              f"({r['episodes']} episodes)")
-    if "random" in results and results["random"]["R"] > 0:
-        print(f"task return vs random policy: {results['deterministic']['R'] / results['random']['R']:.2f}x")
+        evaluations["stochastic"] = evaluate_agent(agent, env, args.episodes, False, args.seed, progress=True)
+    for name, ev in evaluations.items():
+        summary = ev.summary()
+        score = score_block(refs, ev.returns, args.seed)
+        results[name] = {"score": score, **summary, "statistics": ev.statistics(),
+                         "returns": ev.returns.tolist(), "lengths": ev.lengths.tolist()}
+        print(f"{name:>13}: score {format_summary(score)}  ({args.episodes} episodes, 95% CI)")
+        print(f"{'':>15}R {format_summary(summary['R'])}  L {format_summary(summary['L'])}  "
+              f"J {format_summary(summary['J'])}")
+    if args.metrics:
+        from loco_mujoco.evaluation.imitation import imitation_metrics
+
+        results["metrics"] = imitation_metrics(env, evaluations["deterministic"])
+        print_metrics(results["metrics"])
     if args.record is not None:
-        path = Path(args.record or Path(args.checkpoint).with_suffix("").as_posix() + ".mp4")
+        run_dir = Path(args.checkpoint) if Path(args.checkpoint).is_dir() else Path(args.checkpoint).parent
+        path = Path(args.record) if args.record else run_dir / f"{run_dir.resolve().name}_episode0.mp4"
         try:
-            n = record_episode(agent, env, path, seed)
-            print(f"video: {path} ({n} frames)")
-        except Exception as err:  # noqa: BLE001  (no OpenGL context on this machine)
-            print(f"no video: offscreen rendering unavailable ({type(err).__name__}: {err}); try MUJOCO_GL=egl",
+            from loco_mujoco.evaluation.imitation import reference_qpos
+            from loco_mujoco.evaluation.video import render_with_reference
+
+            episode = evaluations["deterministic"].episodes[0]
+            ref = reference_qpos(env, episode.start_frame, len(episode.qpos)) if episode.start_frame is not None \
+                else None
+            n = render_with_reference(env.model, episode.qpos, ref, path, fps=round(1.0 / env.dt))
+            print(f"video: {path} ({n} frames; the translucent figure is the reference motion)")
+            results["video"] = str(path)
+        except Exception as err:  # noqa: BLE001  (no OpenGL context, or an unwritable folder)
+            print(f"no video: {type(err).__name__}: {err} (offscreen rendering needs e.g. MUJOCO_GL=egl)",
                   file=sys.stderr)
     if args.json:
-        Path(args.json).write_text(json.dumps({"task": run.task, "algorithm": run.algorithm, "steps": state["steps"],
-                                               **results}, indent=2))
+        Path(args.json).write_text(json.dumps(results, indent=1, default=float))
+        print(f"results: {args.json}")
     return 0
 
 

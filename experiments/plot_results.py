@@ -23,10 +23,9 @@ from baselines.config import SECTIONS  # noqa: E402
 from baselines.training import (  # noqa: E402
     INIT_FROM_PROGRESS,
     load_checkpoint,
-    make_env,
     run_config_from_checkpoint,
 )
-from experiments.evaluate import random_policy_statistics  # noqa: E402
+from loco_mujoco.evaluation.references import references  # noqa: E402
 
 
 def read_progress(path: Path) -> dict[str, list[float]]:
@@ -65,9 +64,9 @@ def plot_run(run_dir: Path, out_dir: Path) -> Path:
     out_dir.mkdir(parents=True, exist_ok=True)
     shutil.copy(run_dir / "progress.csv", out_dir / f"{stem}.csv")
     progress = read_progress(run_dir / "progress.csv")
-    env = make_env(run, seed=run.train.eval_seed)
-    random = random_policy_statistics(env, run.train.n_eval_episodes, run.train.eval_seed)
-    (out_dir / f"{stem}_random.json").write_text(json.dumps(random, indent=2))
+    refs = references(run.task, run.env)  # random, stand-still and expert returns under the evaluation protocol
+    (out_dir / f"{stem}_references.json").write_text(json.dumps(refs.__dict__, indent=2))
+    random = {"R": refs.random_return, "L": refs.random_length}
 
     steps = [s / 1e6 for s in progress["step"]]
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.6))

@@ -1,4 +1,5 @@
-"""Evaluate an agent: undiscounted return R, discounted return J, episode length L, mean task reward.
+"""Evaluate an agent under the protocol of :mod:`loco_mujoco.evaluation.protocol`: R (undiscounted return), J
+(discounted), L (episode length) and the mean task reward per step, each per episode.
 
 The rewards are the environment's own (task) rewards, never the discriminator's. Deterministic evaluation
 uses the mean action; stochastic evaluation samples from a generator seeded by ``seed``, so evaluating
@@ -9,33 +10,12 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
-from mushroom_rl.core import Core
+from loco_mujoco.evaluation.protocol import Evaluation, run_episodes
 
 
-def episode_statistics(dataset: list[tuple], gamma: float) -> dict[str, float]:
-    """R, J, L and the mean per-step reward of the episodes in a Mushroom dataset (list of transitions)."""
-    returns, discounted, lengths = [], [], []
-    ret = disc = 0.0
-    discount, length = 1.0, 0
-    rewards = np.array([t[2] for t in dataset], dtype=np.float64)
-    for transition, reward in zip(dataset, rewards, strict=True):
-        ret += reward
-        disc += discount * reward
-        discount *= gamma
-        length += 1
-        if transition[-1]:  # last step of an episode
-            returns.append(ret)
-            discounted.append(disc)
-            lengths.append(length)
-            ret = disc = 0.0
-            discount, length = 1.0, 0
-    return {"R": float(np.mean(returns)), "J": float(np.mean(discounted)), "L": float(np.mean(lengths)),
-            "task_reward": float(rewards.mean()), "episodes": len(returns)}
-
-
-def evaluate(agent: Any, env: Any, n_episodes: int = 10, deterministic: bool = True, seed: int = 0) -> dict[str, float]:
-    """Run ``n_episodes`` full episodes and return their mean R, J, L and mean task reward per step.
+def evaluate_agent(agent: Any, env: Any, n_episodes: int, deterministic: bool = True, seed: int = 0,
+                   record: bool = False, progress: bool = False) -> Evaluation:
+    """The agent's episodes under the protocol (``env`` re-seeded with ``seed``); ``record`` keeps the states.
 
     ``agent.policy`` must offer ``evaluation_mode`` (:class:`~baselines.common.policy.GaussianPolicy`).
     """
@@ -43,6 +23,11 @@ def evaluate(agent: Any, env: Any, n_episodes: int = 10, deterministic: bool = T
     if not hasattr(policy, "evaluation_mode"):
         raise TypeError(f"{type(policy).__name__} has no evaluation_mode; use baselines.common.GaussianPolicy")
     with policy.evaluation_mode(deterministic=deterministic, seed=seed):
-        dataset = Core(agent, env).evaluate(n_episodes=n_episodes, quiet=True)
-    stats = episode_statistics(dataset, env.info.gamma)
+        return run_episodes(env, agent.draw_action, n_episodes, seed, record=record, progress=progress,
+                            desc="deterministic" if deterministic else "stochastic")
+
+
+def evaluate(agent: Any, env: Any, n_episodes: int = 10, deterministic: bool = True, seed: int = 0) -> dict[str, float]:
+    """Mean R, J, L and task reward per step of ``n_episodes`` episodes (what training logs every epoch)."""
+    stats = evaluate_agent(agent, env, n_episodes, deterministic, seed).statistics()
     return {**stats, "deterministic": bool(deterministic)}

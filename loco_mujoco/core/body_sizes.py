@@ -117,6 +117,14 @@ class BodySizesMixin:
             return None
         return float(self._dataset.metadata["per_size"][size]["mean_forward_speed"])
 
+    def _set_reward_context(self, frame: int | None) -> None:
+        if self.mode != "all" or not isinstance(self._reward_fn, rw.TargetVelocityReward):
+            return
+        size = self._frame_size(frame) if frame is not None else getattr(self, "current_size", None)
+        per_size = self._dataset_per_size_speed(size) if size is not None else None
+        if per_size is not None:
+            self._reward_fn.target_velocity = per_size
+
     def _frame_size(self, frame: int) -> str:
         traj = int(self.dataset.trajectory_of_frame(frame))
         return str(self.dataset.metadata["sizes"][traj])

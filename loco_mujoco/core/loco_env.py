@@ -371,13 +371,14 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         if unknown:
             raise ValueError(f"unknown reward_params {sorted(unknown)} for reward_type '{reward_type}'; "
                              f"valid: {sorted(allowed) or 'none'}")
+        quat = self._obs_idx[f"q_{spec_edit.ROOT_JOINT}"][1:5]  # (w, x, y, z) after the root height
         if reward_type == "target_velocity":
-            return rw.TargetVelocityReward(vel[0], params.get("target_velocity", self.target_velocity))
+            return rw.TargetVelocityReward(vel[:2], quat, params.get("target_velocity", self.target_velocity))
         if reward_type == "velocity_vector":
             if not self.GOAL_OBSERVATION:
                 raise ValueError(f"reward_type 'velocity_vector' needs a goal in the observation; "
                                  f"{type(self).__name__} has none. Use 'target_velocity'.")
-            return rw.VelocityVectorReward(vel[:2], self._obs_idx["goal_velocity"])
+            return rw.VelocityVectorReward(vel[:2], quat, self._obs_idx["goal_velocity"], self.target_velocity)
         if reward_type == "custom":
             if "callback" not in params:
                 raise ValueError("reward_type 'custom' needs reward_params={'callback': f(state, action, next_state)}")
@@ -418,6 +419,7 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         state (``init_step_no`` or ``random_start``), else from the home pose."""
         m, d = self._model, self._data
         frame = None if obs is not None else self._start_frame()
+        self.episode_start_frame = frame  # the dataset frame this episode starts from (None: home pose or obs)
         self._prepare_episode(frame)
         mujoco.mj_resetData(m, d)
         d.qpos[:] = self._init_qpos

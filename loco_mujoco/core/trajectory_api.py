@@ -92,7 +92,8 @@ class TrajectoryMixin:
         return out
 
     def _dataset_goals(self) -> np.ndarray:
-        """Goal (cos, sin, speed) of every dataset frame from its root velocity averaged over 0.5 s."""
+        """Goal (cos, sin, speed) of every dataset frame: its root velocity averaged over 0.5 s, as a direction in
+        the root's heading frame (like the velocity reward) and a speed."""
         if getattr(self, "_goals_cache", None) is None:
             from scipy.ndimage import uniform_filter1d
 
@@ -102,7 +103,9 @@ class TrajectoryMixin:
             for i in range(ds.n_trajectories):  # average within each trajectory, never across two
                 sl = ds.trajectory_slice(i)
                 vel[sl] = uniform_filter1d(ds.qvel[sl, :2], width, axis=0, mode="nearest")
-            heading = np.arctan2(vel[:, 1], vel[:, 0])
+            qw, qx, qy, qz = ds.qpos[:, 3:7].T  # the free root joint comes first in every dataset's qpos
+            yaw = np.arctan2(2.0 * (qx * qy + qw * qz), 1.0 - 2.0 * (qy * qy + qz * qz))
+            heading = np.arctan2(vel[:, 1], vel[:, 0]) - yaw
             self._goals_cache = np.stack([np.cos(heading), np.sin(heading), np.hypot(vel[:, 0], vel[:, 1])], axis=1)
         return self._goals_cache
 
@@ -111,6 +114,25 @@ class TrajectoryMixin:
         keep = np.ones(self.dataset.n_frames, dtype=bool)
         keep[self.dataset.split_points[1:] - 1] = False  # the last frame of a trajectory has no successor
         return np.flatnonzero(keep)
+
+    def dataset_task_rewards(self) -> np.ndarray:
+        """The task reward of every dataset transition (see ``transition_frames``): what the expert earns per step
+        along its own frames, the 100 of the normalised score."""
+        obs = self.dataset_observations()
+        action = np.zeros(self._n_act)
+        idx = self.transition_frames()
+        out = np.empty(len(idx))
+        try:
+            for k, i in enumerate(idx):
+                self._set_reward_context(int(i))
+                out[k] = self._reward_fn(obs[i], action, obs[i + 1])
+        finally:
+            self._set_reward_context(None)
+        return out
+
+    def _set_reward_context(self, frame: int | None) -> None:
+        """Set what the reward depends on besides the observation (e.g. a body size's target speed) to that of
+        dataset ``frame``; ``None`` restores the current episode's."""
 
     def create_dataset(self) -> dict[str, np.ndarray]:
         """Transitions of the dataset: ``states, next_states, absorbing, last`` (and ``actions`` if it has them)."""

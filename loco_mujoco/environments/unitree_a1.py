@@ -13,9 +13,10 @@ from loco_mujoco.models.menagerie import load_menagerie_spec
 
 
 class UnitreeA1(LocoEnv):
-    """Unitree A1. The reward tracks a goal velocity vector that is part of the observation.
+    """Unitree A1. The reward tracks a goal velocity vector that is part of the observation, expressed in the
+    robot's own heading frame (so the task is the same from any start heading).
 
-    ``simple``: the goal points straight ahead. ``hard``: its heading is drawn uniformly per episode.
+    ``simple``: the goal points straight ahead. ``hard``: its direction is drawn uniformly per episode.
     """
 
     TASKS = {
@@ -42,7 +43,7 @@ class UnitreeA1(LocoEnv):
 
     @property
     def goal_velocity(self) -> np.ndarray:
-        """The current goal as a world-frame xy velocity (m/s)."""
+        """The current goal as an xy velocity (m/s) in the root's heading frame (x ahead, y to the left)."""
         return self._goal[:2] * self._goal[2]
 
 

@@ -1,0 +1,1 @@
+"""Evaluation protocol, reference scores and videos."""

@@ -1,0 +1,108 @@
+"""The evaluation protocol: ``EPISODES`` episodes from dataset start states drawn with ``SEED``, every
+figure a mean with a 95% interval and an IQM.
+
+A policy is any callable ``obs -> action`` (normalised actions in [-1, 1]), so agents of any library can be
+evaluated the same way. The env must start episodes from dataset states (``random_start=True``, the
+default of every training config); re-seeding it with ``seed`` draws the same start frames (and loads,
+body sizes, randomized dynamics) on every call, so two policies evaluated with one seed meet the same
+episodes. Training runs evaluate every epoch with the first ``n_eval_episodes`` (10) of these episodes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from tqdm import tqdm
+
+from loco_mujoco.evaluation.intervals import summarize
+
+EPISODES = 50
+SEED = 12345  # the evaluation seed of every training config (train.eval_seed)
+
+Policy = Callable[[np.ndarray], np.ndarray]
+
+
+@dataclass
+class Episode:
+    """One evaluation episode: its start frame (None: the home pose), per-step task rewards and, when recorded,
+    the simulator's qpos and the observations at every step including the first (``length + 1`` rows)."""
+
+    start_frame: int | None
+    rewards: np.ndarray
+    absorbing: bool
+    qpos: np.ndarray | None = None
+    observations: np.ndarray | None = None
+
+    @property
+    def length(self) -> int:
+        return len(self.rewards)
+
+    @property
+    def undiscounted_return(self) -> float:
+        return float(self.rewards.sum())
+
+    def discounted_return(self, gamma: float) -> float:
+        return float(np.sum(self.rewards * gamma ** np.arange(len(self.rewards))))
+
+
+@dataclass
+class Evaluation:
+    """Episodes of one policy under the protocol, and their summaries."""
+
+    episodes: list[Episode]
+    gamma: float
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def returns(self) -> np.ndarray:
+        return np.array([e.undiscounted_return for e in self.episodes])
+
+    @property
+    def lengths(self) -> np.ndarray:
+        return np.array([e.length for e in self.episodes], dtype=float)
+
+    @property
+    def discounted_returns(self) -> np.ndarray:
+        return np.array([e.discounted_return(self.gamma) for e in self.episodes])
+
+    def statistics(self) -> dict[str, float]:
+        """Mean R (return), J (discounted return), L (length) and task reward per step, as training logs them."""
+        rewards = np.concatenate([e.rewards for e in self.episodes])
+        return {"R": float(self.returns.mean()), "J": float(self.discounted_returns.mean()),
+                "L": float(self.lengths.mean()), "task_reward": float(rewards.mean()), "episodes": len(self.episodes)}
+
+    def summary(self) -> dict[str, dict]:
+        """R, J and L each as mean, 95% interval and IQM."""
+        return {"R": summarize(self.returns), "J": summarize(self.discounted_returns), "L": summarize(self.lengths)}
+
+
+def run_episodes(env, policy: Policy, n_episodes: int = EPISODES, seed: int = SEED, record: bool = False,
+                 progress: bool = False, desc: str = "evaluating") -> Evaluation:
+    """Run ``n_episodes`` episodes of ``policy`` on ``env`` re-seeded with ``seed``; ``record`` keeps states."""
+    if not isinstance(n_episodes, (int, np.integer)) or n_episodes < 1:
+        raise ValueError(f"n_episodes must be a positive int, got {n_episodes!r}")
+    horizon = int(env.info.horizon)
+    env.seed(seed)
+    episodes = []
+    for _ in tqdm(range(n_episodes), disable=not progress, desc=desc, unit="episode", leave=False):
+        obs = env.reset()
+        start = getattr(env, "episode_start_frame", None)
+        rewards = np.empty(horizon)
+        qpos = [env.data.qpos.copy()] if record else None
+        observations = [obs.copy()] if record else None
+        absorbing = False
+        t = 0
+        while t < horizon:
+            obs, reward, absorbing, _ = env.step(policy(obs))
+            rewards[t] = reward
+            t += 1
+            if record:
+                qpos.append(env.data.qpos.copy())
+                observations.append(obs.copy())
+            if absorbing:
+                break
+        episodes.append(Episode(start, rewards[:t].copy(), bool(absorbing),
+                                np.array(qpos) if record else None, np.array(observations) if record else None))
+    return Evaluation(episodes, float(env.info.gamma))

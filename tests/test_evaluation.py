@@ -1,0 +1,105 @@
+"""The evaluation protocol: intervals that cover, reproducible episodes, references and the normalised score."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import loco_mujoco as lm
+from loco_mujoco.evaluation import protocol
+from loco_mujoco.evaluation.intervals import iqm, iqm_interval, mean_interval, summarize
+from loco_mujoco.evaluation.references import (
+    hold_pose_policy,
+    random_policy,
+    references,
+    stand_still_scores,
+    zero_policy,
+)
+
+REPORTED_TASKS = [t for t in lm.list_tasks() if t.split(".")[-1] not in ("real", "perfect", "preference")]
+
+
+def test_mean_interval_covers_the_true_mean_of_a_skewed_distribution():
+    """1,000 repetitions of 50 exponential draws (skewness 2): the 95% interval holds the true mean 93-97% of
+    the time."""
+    rng = np.random.default_rng(2026)
+    covered = 0
+    for rep in range(1000):
+        x = rng.exponential(1.0, size=50)
+        lo, hi = mean_interval(x, reps=1000, seed=rep)
+        covered += lo <= 1.0 <= hi
+    assert 930 <= covered <= 970, covered
+
+
+def test_interval_and_iqm_basics():
+    x = np.array([1.0, 2.0, 3.0, 4.0, 100.0, 5.0, 6.0, 7.0])
+    assert iqm(x) == pytest.approx(np.mean(np.sort(x)[2:6]))  # the middle half
+    lo, hi = mean_interval(x)
+    assert lo < x.mean() < hi
+    lo, hi = iqm_interval(x)
+    assert lo <= iqm(x) <= hi
+    assert mean_interval(np.full(10, 3.0)) == (3.0, 3.0)
+    assert all(math.isnan(v) for v in mean_interval(np.array([1.0])))
+    s = summarize(x)
+    assert s["n"] == 8 and s["mean"] == pytest.approx(x.mean()) and s["ci95"][0] < s["ci95"][1]
+    assert summarize(x) == s  # seeded: the same interval every time
+    with pytest.raises(ValueError, match="finite"):
+        summarize(np.array([1.0, np.nan]))
+    with pytest.raises(ValueError, match="no values"):
+        summarize(np.array([]))
+
+
+def test_protocol_episodes_are_reproducible_and_start_from_dataset_frames():
+    env = lm.LocoEnv.make("UnitreeH1.walk", random_start=True, control="pd")
+    a = protocol.run_episodes(env, random_policy(env, 1), n_episodes=6, seed=7, record=True)
+    b = protocol.run_episodes(env, random_policy(env, 1), n_episodes=6, seed=7, record=True)
+    c = protocol.run_episodes(env, random_policy(env, 1), n_episodes=6, seed=8)
+    np.testing.assert_array_equal(a.returns, b.returns)
+    assert [e.start_frame for e in a.episodes] == [e.start_frame for e in b.episodes]
+    assert [e.start_frame for e in a.episodes] != [e.start_frame for e in c.episodes]
+    qpos, _ = env.dataset_states(np.array([e.start_frame for e in a.episodes]))
+    np.testing.assert_array_equal(np.array([e.qpos[0] for e in a.episodes]), qpos)  # each starts at its frame
+    for e in a.episodes:
+        assert e.qpos.shape == (e.length + 1, env.model.nq) and e.observations.shape[0] == e.length + 1
+        assert e.length == env.info.horizon or e.absorbing
+    stats = a.statistics()
+    assert stats["episodes"] == 6 and stats["R"] == pytest.approx(a.returns.mean())
+    assert stats["J"] < stats["R"]
+    with pytest.raises(ValueError, match="n_episodes"):
+        protocol.run_episodes(env, zero_policy(env), n_episodes=0)
+
+
+def test_references_are_cached_per_settings_and_define_the_score(tmp_path, monkeypatch):
+    monkeypatch.setenv("LOCO_MUJOCO_CACHE", str(tmp_path))
+    refs = references("UnitreeH1.walk", {"control": "pd"}, episodes=10)
+    files = list((tmp_path / "references").glob("*.json"))
+    assert len(files) == 1
+    assert references("UnitreeH1.walk", {"control": "pd"}, episodes=10) == refs  # read back from the cache
+    data = json.loads(files[0].read_text())
+    data["random_return"] = -1.0  # the cache is what is read: a changed file shows
+    files[0].write_text(json.dumps(data))
+    assert references("UnitreeH1.walk", {"control": "pd"}, episodes=10).random_return == -1.0
+    other = references("UnitreeH1.walk", {"control": "torque"}, episodes=10)
+    assert len(list((tmp_path / "references").glob("*.json"))) == 2 and other.env_settings != refs.env_settings
+    assert refs.normalized_score(refs.random_return) == pytest.approx(0.0)
+    assert refs.normalized_score(refs.expert_return) == pytest.approx(100.0)
+    assert refs.expert_return == pytest.approx(1000 * refs.expert_reward_per_step)
+    assert refs.expert_return > 10 * refs.random_return > 0
+
+
+def test_hold_pose_policy_targets_the_home_pose():
+    env = lm.LocoEnv.make("Atlas.walk", control="pd")
+    env.reset()
+    action = hold_pose_policy(env)(None)
+    joints = env.model.actuator_trnid[:, 0]
+    np.testing.assert_allclose(env.action_to_ctrl(action), env.home_qpos(env.model)[env.model.jnt_qposadr[joints]])
+
+
+@pytest.mark.parametrize("task", REPORTED_TASKS)
+def test_standing_still_scores_at_most_5(task):
+    """Zero action and a controller holding the home pose, both from the home pose, score <= 5 on every task."""
+    refs = references(task)
+    scores = stand_still_scores(refs)
+    assert refs.expert_return > refs.random_return + 100, refs
+    assert scores["zero"] <= 5.0 and scores["hold"] <= 5.0, scores
