@@ -103,3 +103,91 @@ def test_standing_still_scores_at_most_5(task):
     scores = stand_still_scores(refs)
     assert refs.expert_return > refs.random_return + 100, refs
     assert scores["zero"] <= 5.0 and scores["hold"] <= 5.0, scores
+
+
+VAIL_CHECKPOINT = "results/runs/UnitreeH1.walk_vail_from15.3M/checkpoint.pt"
+
+
+def _without_trajectory(env, k):
+    """Make ``env`` use its dataset minus trajectory ``k``; returns that trajectory's qpos and observations."""
+    from loco_mujoco.datasets.trajectory import TrajectoryDataset
+
+    ds = env.dataset
+    held = ds.trajectory_slice(k)
+    held_qpos, _ = env.dataset_states(held)
+    held_obs = env.dataset_observations(held)
+    keep = [ds.trajectory_slice(i) for i in range(ds.n_trajectories) if i != k]
+    split = np.concatenate([[0], np.cumsum([s.stop - s.start for s in keep])])
+    env._dataset = TrajectoryDataset(np.concatenate([ds.qpos[s] for s in keep]),
+                                     np.concatenate([ds.qvel[s] for s in keep]), split, ds.frequency,
+                                     ds.joint_names, ds.metadata)
+    env._dataset_cols = env._goals_cache = None
+    return held_qpos, held_obs
+
+
+def test_metrics_rank_held_out_expert_above_vail_above_random():
+    """With one trajectory left out of the reference, that trajectory is closer to the rest than the trained VAIL
+    agent, which is closer than a random policy, on every trajectory and distribution metric."""
+    from baselines.common.evaluation import evaluate_agent
+    from baselines.training import build, load_checkpoint, make_env, run_config_from_checkpoint
+    from loco_mujoco.evaluation.imitation import imitation_metrics
+
+    state = load_checkpoint(VAIL_CHECKPOINT)
+    run = run_config_from_checkpoint(state)
+    _, agent = build(run)
+    agent.load_state_dict(state["agent"])
+    env = make_env(run, seed=0)
+    held_qpos, held_obs = _without_trajectory(env, 0)
+    mask = env.get_kinematic_obs_mask()
+    rest = env.dataset_observations()[:, mask]
+    scale = rest.std(axis=0) + 1e-6
+    episodes = []  # the held-out clip as episodes, each compared with the motion after its nearest rest frame
+    for s in np.linspace(0, len(held_obs) - 200, 6).astype(int):
+        nearest = int(np.argmin(np.linalg.norm((rest - held_obs[s, mask]) / scale, axis=1)))
+        seg = slice(s, s + env.info.horizon + 1)
+        episodes.append(protocol.Episode(nearest, np.zeros(len(held_qpos[seg]) - 1), False, held_qpos[seg],
+                                         held_obs[seg]))
+    held = protocol.Evaluation(episodes, 0.99)
+    vail = evaluate_agent(agent, env, 6, True, protocol.SEED, record=True)
+    rnd = protocol.run_episodes(env, random_policy(env, 1), 6, protocol.SEED, record=True)
+    results = [imitation_metrics(env, ev) for ev in (held, vail, rnd)]
+    for name in results[0]["trajectory"]:
+        h, v, r = (np.mean(m["trajectory"][name]) for m in results)
+        assert h < v < r, (name, h, v, r)
+    for name in results[0]["distribution"]["agent"]:
+        h, v, r = (m["distribution"]["agent"][name] for m in results)
+        assert h < v < r, (name, h, v, r)
+
+
+def test_evaluate_cli_reports_score_interval_and_metrics(tmp_path):
+    from experiments.evaluate import main
+
+    out = tmp_path / "eval.json"
+    assert main([VAIL_CHECKPOINT, "--episodes", "4", "--metrics", "--json", str(out)]) == 0
+    res = json.loads(out.read_text())
+    det = res["deterministic"]
+    assert det["score"]["n"] == 4 and len(det["returns"]) == 4
+    lo, hi = det["score"]["ci95"]
+    assert lo <= det["score"]["mean"] <= hi
+    refs = res["references"]
+    expected = 100 * (np.mean(det["returns"]) - refs["random_return"]) / (refs["expert_return"] - refs["random_return"])
+    assert det["score"]["mean"] == pytest.approx(expected)
+    m = res["metrics"]
+    assert set(m["trajectory"]) == {f"{k}_{p}" for k in ("euclidean", "dtw", "frechet") for p in ("joints", "sites")}
+    assert all(len(v) == 4 and min(v) >= 0 for v in m["trajectory"].values())
+    assert set(m["gait"]["agent"]) == set(m["gait"]["expert"]) and "cadence" in m["gait"]["agent"]
+    assert 0.5 <= m["distribution"]["expert"]["classifier_auc"] < m["distribution"]["agent"]["classifier_auc"]
+    with pytest.raises(SystemExit):
+        main([VAIL_CHECKPOINT, "--episodes", "0"])
+
+
+def test_evaluate_cli_lists_references(tmp_path, capsys):
+    from experiments.evaluate import main
+
+    out = tmp_path / "refs.json"
+    assert main(["--references", "UnitreeH1.walk", "Talos.walk", "--json", str(out)]) == 0
+    rows = json.loads(out.read_text())
+    assert [r["task"] for r in rows] == ["UnitreeH1.walk", "Talos.walk"]
+    assert all(r["expert_return"] > r["random_return"] > r["hold_return"] - 50 for r in rows)
+    printed = capsys.readouterr().out
+    assert "UnitreeH1.walk" in printed and "hold score" in printed

@@ -18,6 +18,7 @@ from scipy.spatial.transform import Rotation
 from loco_mujoco.datasets.human_gait import SIDES, HumanGait
 from loco_mujoco.datasets.motion import Motion
 from loco_mujoco.datasets.resample import resample_angles, resample_quat
+from loco_mujoco.metrics.contacts import foot_contacts, stance_sliding
 from loco_mujoco.models.posture import apply_joint_couplings
 from loco_mujoco.rotations import quat_to_mat
 
@@ -265,7 +266,7 @@ def _ground_and_odometry(qpos: np.ndarray, feet: _Feet, source_root_z: np.ndarra
     lift = np.maximum(0.0, excess - envelope - flight_margin)
     root_z = z_kin + lift
     ground = root_z[:, None] + foot_low  # each foot's height above the ground
-    contact = ground < contact_height
+    contact = foot_contacts(ground, contact_height)
     lowest = rel[..., 2].argmin(axis=2)  # (N, feet): the lowest sole point is where the foot touches
     vel_rel = np.gradient(rel[..., :2], dt, axis=0)
     idx = np.arange(len(qpos))[:, None]
@@ -289,7 +290,7 @@ def _ground_and_odometry(qpos: np.ndarray, feet: _Feet, source_root_z: np.ndarra
     qpos[:, :2] = root_xy
     qpos[:, 2] = root_z
     world_vel = contact_vel + root_v[:, None, :]
-    sliding = np.linalg.norm(world_vel, axis=2)[contact]
+    sliding = stance_sliding(world_vel, contact)
     heading = Rotation.from_quat(qpos[:, [4, 5, 6, 3]]).apply([1.0, 0.0, 0.0])[:, :2]
     heading /= np.linalg.norm(heading, axis=1, keepdims=True)
     quality = {

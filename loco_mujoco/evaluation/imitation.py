@@ -1,10 +1,12 @@
 """Imitation metrics of evaluation episodes against the expert's motion (see :mod:`loco_mujoco.metrics`).
 
-Each episode is compared with the dataset frames that follow its start frame in the same trajectory, over
-the steps both have. Trajectory distances use joint angles (rad) and the world positions of the pelvis and
-feet (m); gait metrics come from foot contacts; distribution metrics compare the kinematic observations of
-all episodes with all dataset frames. Expert values: gait metrics of the matching dataset segments, and
-distribution metrics of half the dataset's trajectories against the other half (their noise floor).
+Each episode is compared with the dataset frames that follow its start frame in the same trajectory, up to
+the end of that trajectory or the horizon. An episode that ended early (a fall) is padded with its last
+state: the fallen robot stays where it fell, so failing early never looks close. Trajectory distances use
+joint angles (rad) and the pelvis height with the feet's positions relative to the pelvis (m); gait metrics
+come from foot contacts; distribution metrics compare the kinematic observations of all episodes with all
+dataset frames. Expert values: gait metrics of the matching dataset segments, and distribution metrics of
+alternate 1 s chunks of the dataset against the rest (their noise floor: two samples of one distribution).
 """
 
 from __future__ import annotations
@@ -47,13 +49,19 @@ class _Kinematics:
         self.dt = float(env.dt)
 
     def sites(self, qpos: np.ndarray) -> np.ndarray:
-        """World positions (T, 3 * bodies) of the pelvis and feet bodies."""
-        out = np.empty((len(qpos), 3 * len(self.body_ids)))
+        """Pelvis height and each foot's position relative to the pelvis in its heading frame, (T, 1 + 3 * feet):
+        the body's posture, free of where it has travelled (the gait metrics measure travel)."""
+        xpos = np.empty((len(qpos), len(self.body_ids), 3))
         for t, q in enumerate(qpos):
             self.data.qpos[:] = q
             mujoco.mj_kinematics(self.model, self.data)
-            out[t] = self.data.xpos[self.body_ids].ravel()
-        return out
+            xpos[t] = self.data.xpos[self.body_ids]
+        heading = _heading(qpos)
+        rel = xpos[:, 1:] - xpos[:, :1]
+        forward = np.einsum("tfk,tk->tf", rel[..., :2], heading)
+        left = np.einsum("tfk,tk->tf", rel[..., :2], np.stack([-heading[:, 1], heading[:, 0]], axis=1))
+        feet = np.stack([forward, left, rel[..., 2]], axis=2).reshape(len(qpos), -1)
+        return np.concatenate([xpos[:, 0, 2:3], feet], axis=1)
 
     def gait(self, qpos: np.ndarray) -> dict[str, float]:
         """Gait metrics of a qpos sequence (NaN for all when shorter than ``MIN_GAIT_STEPS``)."""
@@ -63,14 +71,26 @@ class _Kinematics:
         lowest = pts[..., 2].argmin(axis=2)
         t_idx, f_idx = np.arange(len(qpos))[:, None], np.arange(pts.shape[1])[None]
         low = pts[t_idx, f_idx, lowest]  # (T, feet, 3)
-        qw, qx, qy, qz = qpos[:, 3:7].T
-        heading = np.stack([1.0 - 2.0 * (qy * qy + qz * qz), 2.0 * (qx * qy + qw * qz)], axis=1)
-        heading /= np.maximum(np.linalg.norm(heading, axis=1, keepdims=True), 1e-9)
-        return metrics.gait_metrics(low[..., 2], low[..., :2], qpos[:, :2], heading, self.dt, self.contact_height)
+        return metrics.gait_metrics(low[..., 2], low[..., :2], qpos[:, :2], _heading(qpos), self.dt,
+                                    self.contact_height)
+
+
+def _heading(qpos: np.ndarray) -> np.ndarray:
+    """Unit heading (T, 2) of the root: its x axis projected on the floor."""
+    qw, qx, qy, qz = qpos[:, 3:7].T
+    heading = np.stack([1.0 - 2.0 * (qy * qy + qz * qz), 2.0 * (qx * qy + qw * qz)], axis=1)
+    return heading / np.maximum(np.linalg.norm(heading, axis=1, keepdims=True), 1e-9)
 
 
 GAIT_KEYS = ("forward_speed", "cadence", "stride_length", "duty_factor", "double_support", "foot_clearance",
              "foot_sliding", "symmetry")
+
+
+def padded(qpos: np.ndarray, n: int) -> np.ndarray:
+    """The first ``n`` rows of ``qpos``, repeating its last row where it is shorter (an episode ended by a fall)."""
+    if len(qpos) >= n:
+        return qpos[:n]
+    return np.concatenate([qpos, np.repeat(qpos[-1:], n - len(qpos), axis=0)])
 
 
 def _nanmean(values: list[float]) -> float:
@@ -94,30 +114,27 @@ def imitation_metrics(env, evaluation: Evaluation, seed: int = 0) -> dict[str, d
     gait_agent: dict[str, list[float]] = {k: [] for k in GAIT_KEYS}
     gait_expert: dict[str, list[float]] = {k: [] for k in GAIT_KEYS}
     for ep in evaluation.episodes:
-        ref = reference_qpos(env, ep.start_frame, len(ep.qpos))
-        n = min(len(ref), len(ep.qpos))
-        agent = ep.qpos[:n]
-        ref = ref[:n]
+        ref = reference_qpos(env, ep.start_frame, int(env.info.horizon) + 1)
+        agent = padded(ep.qpos, len(ref))
         pairs = {"joints": (agent[:, 7:], ref[:, 7:]), "sites": (kin.sites(agent), kin.sites(ref))}
         for part, (a, b) in pairs.items():
             for name, fn in TRAJECTORY_METRICS.items():
                 traj[f"{name}_{part}"].append(fn(a, b))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
-            for key, value in kin.gait(agent).items():
+            n = min(len(ep.qpos), len(ref))  # gait over the steps both really have: no padding
+            for key, value in kin.gait(ep.qpos[:n]).items():
                 gait_agent[key].append(value)
-            for key, value in kin.gait(ref).items():
+            for key, value in kin.gait(ref[:n]).items():
                 gait_expert[key].append(value)
     mask = env.get_kinematic_obs_mask()
     expert_states = env.dataset_observations()[:, mask]
     agent_states = np.concatenate([e.observations[:, mask] for e in evaluation.episodes])
     distribution = {name: fn(agent_states, expert_states, seed=seed) for name, fn in DISTRIBUTION_METRICS.items()}
-    ds = env.dataset
-    held_out = np.zeros(ds.n_frames, dtype=bool)
-    for i in range(0, ds.n_trajectories, 2):
-        held_out[ds.trajectory_slice(i)] = True
+    chunk = max(1, int(round(env.dataset.frequency)))
+    held_out = (np.arange(len(expert_states)) // chunk) % 2 == 0
     expert_floor = {name: fn(expert_states[held_out], expert_states[~held_out], seed=seed)
-                    for name, fn in DISTRIBUTION_METRICS.items()} if ds.n_trajectories > 1 else {}
+                    for name, fn in DISTRIBUTION_METRICS.items()}
     return {"trajectory": traj,
             "gait": {"agent": {k: _nanmean(v) for k, v in gait_agent.items()},
                      "expert": {k: _nanmean(v) for k, v in gait_expert.items()}},
