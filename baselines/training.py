@@ -5,7 +5,8 @@ A run directory holds ``config.yaml`` (the resolved configuration), ``checkpoint
 run also keeps ``init_from_progress.csv``, its source's log up to the checkpoint it started from.
 
 One epoch is one ``Core.learn`` call of ``train.epoch_steps`` steps (it ends on a fit), then a deterministic
-evaluation on a separate environment re-seeded with ``train.eval_seed`` (the same start states every epoch),
+evaluation on a separate environment re-seeded with ``train.eval_seed`` (the same start states every epoch; with
+the default seed, the protocol's first ``n_eval_episodes``; the log's ``score`` is their normalised score),
 then the log row, then the checkpoint (written atomically). A killed run therefore loses at most the epoch in
 progress, and resuming restores the agent, the training environment's generator and the global torch / numpy
 generators, so it continues exactly as if it had never stopped.
@@ -31,6 +32,7 @@ from baselines.common.evaluation import evaluate
 from baselines.common.expert_data import ExpertData, kinematic_obs_mask
 from baselines.common.logger import CSVLogger
 from baselines.config import RunConfig
+from loco_mujoco.evaluation.references import references
 
 CHECKPOINT = "checkpoint.pt"
 CHECKPOINT_FORMAT = 1
@@ -126,6 +128,8 @@ class Trainer:
                                   f"or choose another --out")
         self.run = run
         self.progress = progress
+        # Normalised score (0 = random, 100 = expert) of every epoch's evaluation; cached per task and settings.
+        self.references = references(run.task, run.env)
         self.out_dir.mkdir(parents=True, exist_ok=True)
         # The agent and env own seeded generators; the global ones are seeded too, for any code that uses them.
         torch.manual_seed(run.seed)
@@ -165,7 +169,8 @@ class Trainer:
                 self.logger.log(self.steps, epoch=self.epoch, **last_eval, train_steps_per_s=n / train_s,
                                 **{k: v for k, v in stats.items() if k != "fit"})
                 self.save()
-                self._bar.set_postfix(L=f"{last_eval['L']:.0f}", R=f"{last_eval['R']:.1f}",
+                self._bar.set_postfix(score=f"{last_eval['score']:.1f}", L=f"{last_eval['L']:.0f}",
+                                      R=f"{last_eval['R']:.1f}",
                                       task_r=f"{last_eval['task_reward']:.3f}")
         finally:
             self._bar.close()
@@ -182,6 +187,7 @@ class Trainer:
         self.eval_env.seed(t.eval_seed)
         det = evaluate(self.agent, self.eval_env, n_episodes=t.n_eval_episodes, deterministic=True, seed=t.eval_seed)
         out = {k: v for k, v in det.items() if k != "deterministic"}
+        out["score"] = float(self.references.normalized_score(det["R"]))
         if t.n_eval_episodes_stochastic:
             self.eval_env.seed(t.eval_seed)
             sto = evaluate(self.agent, self.eval_env, n_episodes=t.n_eval_episodes_stochastic, deterministic=False,

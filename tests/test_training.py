@@ -225,10 +225,13 @@ def test_launch_and_evaluate_scripts(tmp_path):
                 "--episodes", "2", "--json", str(tmp_path / "eval.json")]
     done = subprocess.run(evaluate, capture_output=True, text=True, cwd=tmp_path, timeout=300)
     assert done.returncode == 0, done.stderr
-    assert "deterministic: R=" in done.stdout and "random: R=" in done.stdout
+    assert "deterministic: score" in done.stdout and "random R" in done.stdout
     result = yaml.safe_load((tmp_path / "eval.json").read_text())
-    assert result["steps"] == 400 and result["deterministic"]["episodes"] == 2
-    assert 1 <= result["deterministic"]["L"] <= 100
+    assert result["steps"] == 400 and result["deterministic"]["statistics"]["episodes"] == 2
+    assert 1 <= result["deterministic"]["statistics"]["L"] <= 100
+    assert result["deterministic"]["score"]["n"] == 2
+    progress = (out / "progress.csv").read_text().splitlines()
+    assert "score" in progress[0].split(",")  # every epoch logs the normalised score
 
 
 # ---- inverse-dynamics expert actions ---------------------------------------------------------------------

@@ -13,6 +13,30 @@ def _edges(c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.flatnonzero(step == 1) + 1, np.flatnonzero(step == -1) + 1
 
 
+MIN_PHASE_S = 0.05  # s: contact or swing phases shorter than this are flicker at the contact height, not steps
+
+
+def _runs(c: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Run-length encoding of a bool sequence: start, length and value of each run."""
+    change = np.flatnonzero(np.diff(c.astype(np.int8))) + 1
+    starts = np.concatenate([[0], change])
+    lengths = np.diff(np.concatenate([starts, [len(c)]]))
+    return starts, lengths, c[starts]
+
+
+def debounce(c: np.ndarray, min_frames: int) -> np.ndarray:
+    """One foot's contact flags (T,) with swings, then stances, shorter than ``min_frames`` removed (interior runs
+    only: the first and last run may be cut by the episode)."""
+    c = np.asarray(c, dtype=bool).copy()
+    for value in (False, True):  # fill short gaps in stance first, then drop short touches
+        starts, lengths, values = _runs(c)
+        interior = (starts > 0) & (starts + lengths < len(c))
+        for s, n in zip(starts[interior & (values == value) & (lengths < min_frames)],
+                        lengths[interior & (values == value) & (lengths < min_frames)], strict=True):
+            c[s:s + n] = not value
+    return c
+
+
 def _swing_peaks(height: np.ndarray, touchdowns: np.ndarray, liftoffs: np.ndarray) -> np.ndarray:
     """Maximum sole height (m) of each complete swing (lift-off to the next touchdown) of one foot."""
     td = touchdowns[touchdowns > liftoffs[0]] if len(liftoffs) else touchdowns[:0]
@@ -38,6 +62,8 @@ def gait_metrics(sole_height: np.ndarray, foot_xy: np.ndarray, root_xy: np.ndarr
 
     Keys:
       - ``forward_speed`` (m/s): mean root velocity along the heading.
+      Steps (touchdowns, lift-offs) come from contacts debounced by ``MIN_PHASE_S``; fractions and sliding
+      from the raw contacts.
       - ``cadence`` (steps/min): touchdowns of all feet per minute; each foot's rate is one over its mean interval
         between touchdowns (touchdowns / duration for a foot with fewer than two), summed over feet.
       - ``stride_length`` (m): mean distance a foot travels between its consecutive touchdowns.
@@ -73,8 +99,9 @@ def gait_metrics(sole_height: np.ndarray, foot_xy: np.ndarray, root_xy: np.ndarr
         foot_sliding = _nan_mean(stance_sliding(np.gradient(feet_xy, dt, axis=0), contacts))
 
     rates, strides, peaks = [], [], []
+    min_frames = max(1, int(round(MIN_PHASE_S / dt)))
     for f in range(n_feet):
-        td, lo = _edges(contacts[:, f])
+        td, lo = _edges(debounce(contacts[:, f], min_frames))
         rates.append((len(td) - 1) / ((td[-1] - td[0]) * dt) if len(td) >= 2 else len(td) / (t * dt))
         strides.append(np.linalg.norm(np.diff(feet_xy[td, f], axis=0), axis=1))
         peaks.append(_swing_peaks(h[:, f], td, lo))
