@@ -33,7 +33,7 @@ DEMO_STEPS ?= 500000
 demo: install
 	rm -rf out/demo_vail
 	$(PY) experiments/launch.py --env UnitreeH1.walk --algo vail --steps $(DEMO_STEPS) --out out/demo_vail
-	$(PY) experiments/evaluate.py out/demo_vail/checkpoint.pt --episodes 10
+	$(PY) experiments/evaluate.py out/demo_vail/checkpoint.pt
 
 # Replay UnitreeH1.walk's real dataset, print its provenance and quality, write out/demo.mp4.
 replay: install

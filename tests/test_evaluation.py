@@ -41,6 +41,8 @@ def test_interval_and_iqm_basics():
     assert lo <= iqm(x) <= hi
     assert mean_interval(np.full(10, 3.0)) == (3.0, 3.0)
     assert all(math.isnan(v) for v in mean_interval(np.array([1.0])))
+    degenerate = summarize(np.array([1.0, 1.0, 1.0, 2.0]))  # resamples often constant: falls back, stays finite
+    assert np.all(np.isfinite(degenerate["ci95"] + degenerate["iqm_ci95"]))
     s = summarize(x)
     assert s["n"] == 8 and s["mean"] == pytest.approx(x.mean()) and s["ci95"][0] < s["ci95"][1]
     assert summarize(x) == s  # seeded: the same interval every time

@@ -4,9 +4,10 @@ Each episode is compared with the dataset frames that follow its start frame in 
 the end of that trajectory or the horizon. An episode that ended early (a fall) is padded with its last
 state: the fallen robot stays where it fell, so failing early never looks close. Trajectory distances use
 joint angles (rad) and the pelvis height with the feet's positions relative to the pelvis (m); gait metrics
-come from foot contacts; distribution metrics compare the kinematic observations of all episodes with all
-dataset frames. Expert values: gait metrics of the matching dataset segments, and distribution metrics of
-alternate 1 s chunks of the dataset against the rest (their noise floor: two samples of one distribution).
+come from foot contacts; distribution metrics compare the kinematic observations of all episodes (padded
+alike) with all dataset frames. Expert values: gait metrics of the matching dataset segments, and
+distribution metrics of alternate 1 s chunks of the dataset against the rest (their noise floor: two samples
+of one distribution).
 """
 
 from __future__ import annotations
@@ -86,11 +87,11 @@ GAIT_KEYS = ("forward_speed", "cadence", "stride_length", "duty_factor", "double
              "foot_sliding", "symmetry")
 
 
-def padded(qpos: np.ndarray, n: int) -> np.ndarray:
-    """The first ``n`` rows of ``qpos``, repeating its last row where it is shorter (an episode ended by a fall)."""
-    if len(qpos) >= n:
-        return qpos[:n]
-    return np.concatenate([qpos, np.repeat(qpos[-1:], n - len(qpos), axis=0)])
+def padded(rows: np.ndarray, n: int) -> np.ndarray:
+    """The first ``n`` rows of ``rows``, repeating its last row where it is shorter (an episode ended by a fall)."""
+    if len(rows) >= n:
+        return rows[:n]
+    return np.concatenate([rows, np.repeat(rows[-1:], n - len(rows), axis=0)])
 
 
 def _nanmean(values: list[float]) -> float:
@@ -113,8 +114,11 @@ def imitation_metrics(env, evaluation: Evaluation, seed: int = 0) -> dict[str, d
     traj: dict[str, list[float]] = {f"{n}_{part}": [] for part in ("joints", "sites") for n in TRAJECTORY_METRICS}
     gait_agent: dict[str, list[float]] = {k: [] for k in GAIT_KEYS}
     gait_expert: dict[str, list[float]] = {k: [] for k in GAIT_KEYS}
+    mask = env.get_kinematic_obs_mask()
+    agent_parts = []
     for ep in evaluation.episodes:
         ref = reference_qpos(env, ep.start_frame, int(env.info.horizon) + 1)
+        agent_parts.append(padded(ep.observations[:, mask], len(ref)))
         agent = padded(ep.qpos, len(ref))
         pairs = {"joints": (agent[:, 7:], ref[:, 7:]), "sites": (kin.sites(agent), kin.sites(ref))}
         for part, (a, b) in pairs.items():
@@ -127,9 +131,8 @@ def imitation_metrics(env, evaluation: Evaluation, seed: int = 0) -> dict[str, d
                 gait_agent[key].append(value)
             for key, value in kin.gait(ref[:n]).items():
                 gait_expert[key].append(value)
-    mask = env.get_kinematic_obs_mask()
     expert_states = env.dataset_observations()[:, mask]
-    agent_states = np.concatenate([e.observations[:, mask] for e in evaluation.episodes])
+    agent_states = np.concatenate(agent_parts)  # padded like the trajectories: early falls weigh as fallen states
     distribution = {name: fn(agent_states, expert_states, seed=seed) for name, fn in DISTRIBUTION_METRICS.items()}
     chunk = max(1, int(round(env.dataset.frequency)))
     held_out = (np.arange(len(expert_states)) // chunk) % 2 == 0

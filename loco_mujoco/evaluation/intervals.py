@@ -10,6 +10,7 @@ built on the same ``arch`` bootstrap but pins ``arch<8``, whose last release doe
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 from scipy.stats import trim_mean
@@ -44,34 +45,45 @@ def _check(values: np.ndarray) -> np.ndarray:
     return x
 
 
+def _interval(x: np.ndarray, func, method: str, confidence: float, reps: int, seed: int,
+              **kwargs) -> tuple[float, float]:
+    """``method``'s bootstrap interval of ``func(x)``; the percentile interval where ``method`` is undefined (a
+    small sample whose resamples are often constant: zero standard errors, or BCa's bias at 0 or 1)."""
+    from arch.bootstrap import IIDBootstrap
+
+    with warnings.catch_warnings(), np.errstate(divide="ignore", invalid="ignore"):
+        warnings.simplefilter("ignore", RuntimeWarning)
+        try:
+            ci = IIDBootstrap(x, seed=np.random.default_rng(seed)).conf_int(func, reps=reps, method=method,
+                                                                            size=confidence, **kwargs)
+        except RuntimeError:
+            ci = np.full((2, 1), np.nan)
+        if not np.all(np.isfinite(ci)):
+            ci = IIDBootstrap(x, seed=np.random.default_rng(seed)).conf_int(func, reps=reps, method="percentile",
+                                                                            size=confidence)
+    return float(ci[0, 0]), float(ci[1, 0])
+
+
 def mean_interval(values: np.ndarray, confidence: float = CONFIDENCE, reps: int = BOOTSTRAP_REPS,
                   seed: int = 0) -> tuple[float, float]:
     """Studentized-bootstrap interval of the mean of ``values`` (NaN bounds for fewer than 2 values)."""
-    from arch.bootstrap import IIDBootstrap
-
     x = _check(values)
     if x.size < 2:
         return math.nan, math.nan
     if np.ptp(x) == 0.0:
         return float(x[0]), float(x[0])
-    bs = IIDBootstrap(x, seed=np.random.default_rng(seed))
-    ci = bs.conf_int(_mean, reps=reps, method="studentized", size=confidence, std_err_func=_standard_error)
-    return float(ci[0, 0]), float(ci[1, 0])
+    return _interval(x, _mean, "studentized", confidence, reps, seed, std_err_func=_standard_error)
 
 
 def iqm_interval(values: np.ndarray, confidence: float = CONFIDENCE, reps: int = BOOTSTRAP_REPS,
                  seed: int = 0) -> tuple[float, float]:
-    """BCa-bootstrap interval of the interquartile mean of ``values``."""
-    from arch.bootstrap import IIDBootstrap
-
+    """BCa-bootstrap interval of the interquartile mean of ``values`` (NaN bounds for fewer than 4 values)."""
     x = _check(values)
     if x.size < 4:
         return math.nan, math.nan
     if np.ptp(x) == 0.0:
         return float(x[0]), float(x[0])
-    bs = IIDBootstrap(x, seed=np.random.default_rng(seed))
-    ci = bs.conf_int(_iqm, reps=reps, method="bca", size=confidence)
-    return float(ci[0, 0]), float(ci[1, 0])
+    return _interval(x, _iqm, "bca", confidence, reps, seed)
 
 
 def summarize(values: np.ndarray, seed: int = 0) -> dict[str, float | list[float]]:
