@@ -66,13 +66,16 @@ def plot_run(run_dir: Path, out_dir: Path) -> Path:
     progress = read_progress(run_dir / "progress.csv")
     refs = references(run.task, run.env)  # random, stand-still and expert returns under the evaluation protocol
     (out_dir / f"{stem}_references.json").write_text(json.dumps(refs.__dict__, indent=2))
-    random = {"R": refs.random_return, "L": refs.random_length}
+    # Runs logged since the evaluation protocol carry the normalised score (random policy at 0); older runs only
+    # their task return R, under the reward of their time, so no reference line is drawn for it.
+    random = {"L": refs.random_length, "score": 0.0}
+    middle = ("score", "normalised score (random 0, expert 100)") if "score" in progress else ("R", "task return R")
 
     steps = [s / 1e6 for s in progress["step"]]
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.6))
-    for ax, key, label in zip(axes, ("L", "R", "disc_reward_mean"),
-                              ("episode length L", "task return R", "discriminator reward / step"), strict=True):
-        if source is not None:
+    for ax, key, label in zip(axes, ("L", middle[0], "disc_reward_mean"),
+                              ("episode length L", middle[1], "discriminator reward / step"), strict=True):
+        if source is not None and key in source:
             ax.plot([s / 1e6 for s in source["step"]], source[key], color="tab:grey", alpha=0.7,
                     label="before the warm start")
             ax.axvline(run.init_from["steps"] / 1e6, color="black", linewidth=0.8, linestyle=":")
