@@ -58,7 +58,8 @@ _WALK = (Clip("deepmimic/humanoid3d_long_walk1.txt"), Clip("deepmimic/humanoid3d
          Clip("opensim/subject01_walk1_ik.mot"), Clip("cmu/07_02.bvh"), Clip("cmu/08_03.bvh"))
 _RUN = (Clip("opensim/subject02_running_arms_ik.mot"), Clip("deepmimic/humanoid3d_run.txt"),
         Clip("deepmimic/humanoid3d_jog.txt"), *(Clip(f"cmu/{c}.bvh") for c in
-                                                ("09_01", "09_04", "16_36", "16_45", "35_17", "127_07")))
+                                                ("09_01", "09_03", "09_04", "09_07", "09_08", "16_35", "16_36",
+                                                 "16_45", "35_17", "35_23", "35_24", "35_25", "35_26", "127_07")))
 _SIE_RUNS = tuple(Clip(f"noncommercial/deepmimic-sie-runs/sie_humanoid3d_run_forward{i:02d}.txt")
                   for i in range(0, 16, 2))
 _A1 = "noncommercial/a1-retargeted/"

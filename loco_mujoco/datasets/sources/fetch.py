@@ -37,6 +37,10 @@ _LOCO = f"{_RAW}/robfiras/loco-mujoco/3a0b152"
 # una-dinosauria/cmu-mocap: <subject:03d>/<trial>.bvh; 09_01 and 127_07 verified by size at these commits.
 _CMU_2017 = f"{_RAW}/una-dinosauria/cmu-mocap/62ac0fb0ec43cff2bf66426928f4fa6682d4bbdc"
 _CMU_2018 = f"{_RAW}/una-dinosauria/cmu-mocap/f50fdd380214418ff240056a728a34adaf7bd1b0"
+# Running clips added 2026-11 (SOURCES.md: "CMU clips added later"), each at the commit that holds it.
+_CMU_5D98 = f"{_RAW}/una-dinosauria/cmu-mocap/5d98bb6b62b4735d89ff5f53e96899de2b92d8b4"
+_CMU_34E1 = f"{_RAW}/una-dinosauria/cmu-mocap/34e1472e5b8c234d40a62bb9cd969b5910fa1803"
+_CMU_E0CD = f"{_RAW}/una-dinosauria/cmu-mocap/e0cd4c298d3288de769bd4859787edc444a2ec31"
 # google-research/motion_imitation @ 9263c9f: full hash not found; retarget_motion/data/ paths and sizes
 # verified in the erwincoumans/motion_imitation copy.
 _DOG = f"{_RAW}/google-research/motion_imitation/9263c9f"
@@ -73,6 +77,22 @@ _MANIFEST: dict[str, tuple[str, str, str]] = {
         "90641ccca814b9d8d59f63576a548bb5612477364462d142a9f741268fbe3b78"),
     "cmu/09_04.bvh": (_CMU_2017, "009/09_04.bvh",
         "9fd8f872739053df52ecd1b26f499ee74520837062cd5bedfad2cfdfbe7cdc40"),
+    "cmu/09_03.bvh": (_CMU_5D98, "data/009/09_03.bvh",
+        "275d24814053eb17d6c46e00f396c4138d98c62fe5d68940447fb4ec29c4c042"),
+    "cmu/09_07.bvh": (_CMU_5D98, "data/009/09_07.bvh",
+        "4a4afc1d0fdd789629038421f33bb433604537e0e7bd08d0b0ec41729fdeeb99"),
+    "cmu/09_08.bvh": (_CMU_34E1, "09/09_08.bvh",
+        "991fe93d5aa15110434a48884847160efc6d5c859e44690322c2c6f9977a02b8"),
+    "cmu/16_35.bvh": (_CMU_5D98, "data/016/16_35.bvh",
+        "d20d54a9ccebd7aaf4aa6c4d7662c4905d47009401895de216a914edecf287be"),
+    "cmu/35_23.bvh": (_CMU_2017, "035/35_23.bvh",
+        "906db684ac4f7d980dd11e9a993d4fa2af7e303eab562e15a1b2782a0cd9afac"),
+    "cmu/35_24.bvh": (_CMU_5D98, "data/035/35_24.bvh",
+        "71a7811857caf22c8ae8bb700521a0b3aac350d4173185933ca7c95ad15ce081"),
+    "cmu/35_25.bvh": (_CMU_E0CD, "35/35_25.bvh",
+        "3434ebb52f9f65a843f1670348cbb3bdc4e9af5083c0321a93f56eb1ba4cb9c2"),
+    "cmu/35_26.bvh": (_CMU_5D98, "data/035/35_26.bvh",
+        "4080728a8030266c4c6844168afde02af879817efc8f747409f9aead61cc8da9"),
     "cmu/127_07.bvh": (_CMU_2018, "127/127_07.bvh",
         "96e71a06d88239571262fb8df3fda3dfb006f72ee50b57b86c8ae52b877269e2"),
     "cmu/16_36.bvh": (_CMU_2017, "016/16_36.bvh",
