@@ -85,6 +85,10 @@ def print_metrics(m: dict) -> None:
         s = summarize(vals[np.isfinite(vals)], seed=0) if np.any(np.isfinite(vals)) else None
         text = format_summary(s, 3) if s else "n/a"
         print(f"  {name:<22}{text:<40} expert 0 by definition  ({METRIC_UNITS[kind]}, {METRIC_UNITS[part]})")
+    dev = np.asarray(m["gait"]["deviation"], dtype=float)
+    dev_text = format_summary(summarize(dev[np.isfinite(dev)]), 3) if np.any(np.isfinite(dev)) else "n/a"
+    print(f"  {'gait_deviation':<22}{dev_text:<40} expert 0 by definition  (mean relative deviation of the gait "
+          "metrics below, each capped at 1)")
     print(f"  {'gait':<22}{'agent':>12}{'expert':>12}")
     for key, value in m["gait"]["agent"].items():
         print(f"  {key:<22}{value:12.3f}{m['gait']['expert'][key]:12.3f}  ({GAIT_UNITS[key]})")

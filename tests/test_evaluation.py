@@ -129,7 +129,8 @@ def _without_trajectory(env, k):
 
 def test_metrics_rank_held_out_expert_above_vail_above_random():
     """With one trajectory left out of the reference, that trajectory is closer to the rest than the trained VAIL
-    agent, which is closer than a random policy, on every trajectory and distribution metric."""
+    agent, which is closer than a random policy, on every trajectory distance, the gait deviation and every
+    distribution metric."""
     from baselines.common.evaluation import evaluate_agent
     from baselines.training import build, load_checkpoint, make_env, run_config_from_checkpoint
     from loco_mujoco.evaluation.imitation import imitation_metrics
@@ -156,6 +157,8 @@ def test_metrics_rank_held_out_expert_above_vail_above_random():
     for name in results[0]["trajectory"]:
         h, v, r = (np.mean(m["trajectory"][name]) for m in results)
         assert h < v < r, (name, h, v, r)
+    h, v, r = (np.nanmean(m["gait"]["deviation"]) for m in results)
+    assert h < v < r, ("gait_deviation", h, v, r)
     for name in results[0]["distribution"]["agent"]:
         h, v, r = (m["distribution"]["agent"][name] for m in results)
         assert h < v < r, (name, h, v, r)

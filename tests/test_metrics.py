@@ -200,3 +200,14 @@ def test_mmd_bandwidth():
     assert mmd_rbf(x, y, bandwidth=1.0) == pytest.approx(np.sqrt(2 - 2 * np.exp(-1)))
     with pytest.raises(ValueError, match="bandwidth"):
         mmd_rbf(x, y, bandwidth=-1.0)
+
+
+def test_gait_deviation_is_zero_for_the_expert_and_counts_undefined_metrics_fully():
+    from loco_mujoco.metrics import gait_deviation
+
+    expert = {"cadence": 100.0, "stride_length": 1.0, "symmetry": 0.0, "double_support": float("nan")}
+    assert gait_deviation(expert, expert) == 0.0
+    # cadence 50% off, stride undefined (counts 1), symmetry 0.02 off a floor of 0.05 (0.4); NaN expert skipped
+    agent = {"cadence": 150.0, "stride_length": float("nan"), "symmetry": 0.02, "double_support": 0.3}
+    assert gait_deviation(agent, expert) == pytest.approx((0.5 + 1.0 + 0.4) / 3)
+    assert gait_deviation({"cadence": 1000.0}, {"cadence": 100.0}) == 1.0  # capped

@@ -102,8 +102,8 @@ def _nanmean(values: list[float]) -> float:
 def imitation_metrics(env, evaluation: Evaluation, seed: int = 0) -> dict[str, dict]:
     """Trajectory, gait and distribution metrics of ``evaluation``'s recorded episodes (``record=True``).
 
-    Returns ``{"trajectory": {name_joints|name_sites: per-episode list}, "gait": {"agent": ..., "expert": ...},
-    "distribution": {"agent": ..., "expert": ...}}``.
+    Returns ``{"trajectory": {name_joints|name_sites: per-episode list}, "gait": {"agent": ..., "expert": ...,
+    "deviation": per-episode list}, "distribution": {"agent": ..., "expert": ...}}``.
     """
     if any(e.qpos is None for e in evaluation.episodes):
         raise ValueError("imitation metrics need recorded episodes: run_episodes(..., record=True)")
@@ -115,7 +115,7 @@ def imitation_metrics(env, evaluation: Evaluation, seed: int = 0) -> dict[str, d
     gait_agent: dict[str, list[float]] = {k: [] for k in GAIT_KEYS}
     gait_expert: dict[str, list[float]] = {k: [] for k in GAIT_KEYS}
     mask = env.get_kinematic_obs_mask()
-    agent_parts = []
+    agent_parts, deviation = [], []
     for ep in evaluation.episodes:
         ref = reference_qpos(env, ep.start_frame, int(env.info.horizon) + 1)
         agent_parts.append(padded(ep.observations[:, mask], len(ref)))
@@ -131,6 +131,8 @@ def imitation_metrics(env, evaluation: Evaluation, seed: int = 0) -> dict[str, d
                 gait_agent[key].append(value)
             for key, value in kin.gait(ref[:n]).items():
                 gait_expert[key].append(value)
+            # one number per episode: the padded episode's gait against the whole reference segment
+            deviation.append(metrics.gait_deviation(kin.gait(agent), kin.gait(ref)))
     expert_states = env.dataset_observations()[:, mask]
     agent_states = np.concatenate(agent_parts)  # padded like the trajectories: early falls weigh as fallen states
     distribution = {name: fn(agent_states, expert_states, seed=seed) for name, fn in DISTRIBUTION_METRICS.items()}
@@ -140,5 +142,5 @@ def imitation_metrics(env, evaluation: Evaluation, seed: int = 0) -> dict[str, d
                     for name, fn in DISTRIBUTION_METRICS.items()}
     return {"trajectory": traj,
             "gait": {"agent": {k: _nanmean(v) for k, v in gait_agent.items()},
-                     "expert": {k: _nanmean(v) for k, v in gait_expert.items()}},
+                     "expert": {k: _nanmean(v) for k, v in gait_expert.items()}, "deviation": deviation},
             "distribution": {"agent": distribution, "expert": expert_floor}}

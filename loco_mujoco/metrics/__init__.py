@@ -9,7 +9,7 @@ package imports nothing else from loco_mujoco, nor mujoco or torch, so any layer
 
 from loco_mujoco.metrics.contacts import foot_contacts, stance_sliding
 from loco_mujoco.metrics.distribution import classifier_auc, mmd_rbf, sliced_wasserstein
-from loco_mujoco.metrics.gait import gait_metrics
+from loco_mujoco.metrics.gait import gait_deviation, gait_metrics
 from loco_mujoco.metrics.trajectory import dtw_distance, euclidean_distance, frechet_distance
 
 __all__ = [
@@ -18,6 +18,7 @@ __all__ = [
     "euclidean_distance",
     "foot_contacts",
     "frechet_distance",
+    "gait_deviation",
     "gait_metrics",
     "mmd_rbf",
     "sliced_wasserstein",

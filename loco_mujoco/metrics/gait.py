@@ -119,3 +119,16 @@ def gait_metrics(sole_height: np.ndarray, foot_xy: np.ndarray, root_xy: np.ndarr
         "foot_sliding": foot_sliding,
         "symmetry": float(abs(duty[0] - duty[1]) / mean_duty01) if n_feet >= 2 and mean_duty01 > 0 else nan,
     }
+
+
+def gait_deviation(agent: dict[str, float], expert: dict[str, float]) -> float:
+    """Mean relative deviation (fraction, 0 = the expert's gait) of ``agent``'s gait metrics from ``expert``'s:
+    the mean over the metrics the expert defines of ``|a - e| / max(|e|, 0.05)``, each capped at 1, where a
+    metric the agent cannot define (no step taken) counts as 1."""
+    deviations = []
+    for key, e in expert.items():
+        if not np.isfinite(e):
+            continue
+        a = agent.get(key, float("nan"))
+        deviations.append(1.0 if not np.isfinite(a) else min(abs(a - e) / max(abs(e), 0.05), 1.0))
+    return float(np.mean(deviations)) if deviations else float("nan")
