@@ -45,6 +45,19 @@ def make_env(run: RunConfig, seed: int) -> Any:
     return LocoEnv.make(run.task, seed=seed, **run.env)
 
 
+def dataset_identity(env: Any) -> dict[str, Any]:
+    """The exact data a run trains on: its file and that file's sha256 (a digest of the states when the dataset
+    was joined in memory, e.g. the body sizes of mode ``all``)."""
+    import hashlib
+
+    ds = env.dataset
+    if ds.source_file is not None:
+        path = Path(ds.source_file)
+        return {"file": path.name, "sha256": hashlib.sha256(path.read_bytes()).hexdigest()}
+    h = hashlib.sha256(np.ascontiguousarray(ds.qpos).tobytes() + np.ascontiguousarray(ds.qvel).tobytes())
+    return {"file": None, "states_sha256": h.hexdigest()}
+
+
 def make_expert(run: RunConfig, env: Any) -> ExpertData:
     """The expert transitions; with ``train.expert_actions: inverse_dynamics`` actions derived by inverse dynamics."""
     dataset = env.create_dataset()
@@ -143,7 +156,8 @@ class Trainer:
         else:
             if warm is not None:
                 self._warm_start(warm)
-            (self.out_dir / "config.yaml").write_text(yaml.safe_dump(run.to_dict(), sort_keys=False))
+            config = {**run.to_dict(), "dataset": dataset_identity(self.env)}
+            (self.out_dir / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
         self.logger = CSVLogger(self.out_dir)
 
     # ---- the loop -------------------------------------------------------------------------------------

@@ -1,7 +1,7 @@
-"""Build every task's real dataset into the cache, or list them with provenance and quality figures.
+"""Build every task's real and agent datasets into the cache, or list them with provenance and figures.
 
     python experiments/build_datasets.py            # build all (cached ones are loaded)
-    python experiments/build_datasets.py --list     # table: sources, licence, seconds, speed, quality
+    python experiments/build_datasets.py --list     # sources, licence, seconds, speed, quality; agents, returns
     python experiments/build_datasets.py --task UnitreeH1.walk --rebuild
     python experiments/build_datasets.py --task HumanoidTorque4Ages.walk.2
 """
@@ -65,7 +65,42 @@ def main(argv: list[str] | None = None) -> int:
               f"stance float {1000 * q['stance_float_mean_m']:.1f} mm, "
               f"joint-limit clipped {100 * q['joint_limit_clipped_fraction']:.2f}%, "
               f"flight {100 * q['flight_fraction']:.0f}%")
+    if not args.task:
+        list_agent_datasets(args.list, args.rebuild)
     return 0
+
+
+def list_agent_datasets(details: bool, rebuild: bool) -> None:
+    """Build (or load) every shipped perfect and preference dataset; with ``details`` print their agents,
+    returns and sizes."""
+    import numpy as np
+
+    from loco_mujoco.agent_datasets import AGENT_RECIPES, agent_dataset_path, file_sha256
+    from loco_mujoco.datasets.trajectory import TrajectoryDataset
+
+    for name in AGENT_RECIPES:
+        path = agent_dataset_path(name, rebuild=rebuild, progress=not details)
+        ds = TrajectoryDataset.load(path)
+        meta = ds.metadata
+        n_transitions = int(np.sum(~np.isnan(ds.actions[:, 0])))
+        print(f"{name}  {n_transitions:,} transitions with actions in {ds.n_trajectories} trajectories, "
+              f"{path.stat().st_size / 1e6:.1f} MB, sha256 {file_sha256(path)[:16]}")
+        if not details:
+            continue
+        print(f"    env settings: {meta['env_settings']}; seed {meta['seed']}, "
+              f"{'deterministic' if meta['deterministic'] else 'stochastic'} policy; licence {meta['licences'][0]}")
+        for i, agent in enumerate(meta["agents"]):
+            line = f"    agent {i}: {agent['algorithm']} at {agent['steps'] / 1e6:.1f}M steps ({agent['export']})"
+            if meta["type"] == "preference":
+                s = meta["sets"][i]
+                line += (f": rank {s['rank']}, mean return {s['mean_return']:.1f} over {len(s['returns'])} episodes, "
+                         f"mean length {np.mean(s['lengths']):.0f}")
+            else:
+                ep = meta["episodes"]
+                line += (f": {ep['rolled_out']} episodes (mean return {np.mean(ep['returns']):.1f}, mean length "
+                         f"{np.mean(ep['lengths']):.0f}); {ep['fell']} fell and were cut {meta['fall_margin_s']} s "
+                         "before the fall")
+            print(line)
 
 
 if __name__ == "__main__":

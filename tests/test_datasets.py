@@ -108,8 +108,8 @@ def test_same_build_gives_byte_identical_files(tmp_path):
 def test_unknown_variant_and_missing_dataset_type_raise_clear_errors():
     with pytest.raises(registry.DatasetUnavailableError, match="variants"):
         _ = lm.LocoEnv.make("UnitreeH1.walk", dataset_variant="bogus", reward_type="none").dataset
-    with pytest.raises(registry.DatasetUnavailableError, match="perfect"):
-        _ = lm.LocoEnv.make("UnitreeH1.walk.perfect", reward_type="none").dataset
+    with pytest.raises(ValueError, match="no 'perfect' dataset.*types with data for it: real;"):
+        lm.LocoEnv.make("UnitreeH1.run.perfect", reward_type="none")
 
 
 @pytest.mark.parametrize("env_name, file", [("UnitreeH1.walk", "02-constspeed_UnitreeH1.npz"),

@@ -57,6 +57,16 @@ def test_unknown_keyword_choices_name_the_valid_ones():
 
 
 def test_mushroom_environment_make_builds_the_same_env():
-    env = Environment.make("UnitreeA1.hard.perfect")
+    env = Environment.make("UnitreeA1.hard.real")
     assert isinstance(env, lm.UnitreeA1)
-    assert (env.task_name, env.dataset_type) == ("hard", "perfect")
+    assert (env.task_name, env.dataset_type) == ("hard", "real")
+    with pytest.raises(ValueError, match="UnitreeA1.hard.perfect has no data"):
+        Environment.make("UnitreeA1.hard.perfect")
+
+
+def test_list_tasks_with_data_keeps_only_buildable_names():
+    names = lm.list_tasks(with_data=True)
+    assert "UnitreeH1.walk.perfect" in names and "UnitreeH1.walk.preference" in names
+    assert "UnitreeA1.hard.perfect" not in names and "UnitreeH1.run.preference" not in names
+    assert "UnitreeH1.run" in names and "UnitreeH1.run.real" in names
+    assert set(names) < set(lm.list_tasks())

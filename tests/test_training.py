@@ -230,6 +230,8 @@ def test_launch_and_evaluate_scripts(tmp_path):
     assert result["steps"] == 400 and result["deterministic"]["statistics"]["episodes"] == 2
     assert 1 <= result["deterministic"]["statistics"]["L"] <= 100
     assert result["deterministic"]["score"]["n"] == 2
+    written = yaml.safe_load((out / "config.yaml").read_text())
+    assert written["dataset"]["file"].startswith("UnitreeH1.walk.real.") and len(written["dataset"]["sha256"]) == 64
     progress = (out / "progress.csv").read_text().splitlines()
     assert "score" in progress[0].split(",")  # every epoch logs the normalised score
 

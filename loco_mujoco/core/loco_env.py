@@ -102,7 +102,7 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         mode: str | None = None,
         dataset_type: str = DEFAULT_DATASET_TYPE,
         control: str | None = None,
-        disable_arms: bool = True,
+        disable_arms: bool | None = None,
         reward_type: str = "task",
         reward_params: dict[str, Any] | None = None,
         timestep: float | None = None,
@@ -116,7 +116,7 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         dataset_path: str | None = None,
         domain_randomization_config: str | Path | Mapping | None = None,
         weight_mass: float | None = None,
-        use_foot_forces: bool = False,
+        use_foot_forces: bool | None = None,
         **viewer_params: Any,
     ):
         """Build the model for ``task`` and compile it once.
@@ -148,6 +148,17 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         elif mode is not None:
             raise ValueError(f"{type(self).__name__} has no modes, got mode={mode!r}")
         self._validate_choice("dataset_type", dataset_type, self.DATASET_TYPES)
+        if dataset_type != DEFAULT_DATASET_TYPE and dataset_path is None:  # agent data: its settings travel with it
+            settings = self._agent_dataset_settings(task, mode, dataset_type, {
+                "control": control, "disable_arms": disable_arms, "timestep": timestep, "n_substeps": n_substeps,
+                "use_foot_forces": use_foot_forces, "weight_mass": weight_mass,
+                "domain_randomization_config": domain_randomization_config})
+            control, disable_arms, timestep, n_substeps = (settings[k] for k in (
+                "control", "disable_arms", "timestep", "n_substeps"))
+            use_foot_forces, weight_mass = settings["use_foot_forces"], settings["weight_mass"]
+            domain_randomization_config = settings["domain_randomization_config"]
+        disable_arms = True if disable_arms is None else disable_arms
+        use_foot_forces = False if use_foot_forces is None else use_foot_forces
         control = control or self.DEFAULT_CONTROL
         self._validate_choice(f"control for {type(self).__name__}", control, self.CONTROLS)
         self._validate_choice("reward_type", reward_type, rw.REWARD_TYPES)
@@ -211,6 +222,43 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
                                  gamma, horizon, self.dt)
 
     # ---- construction ---------------------------------------------------------------------------
+    @classmethod
+    def dataset_types_with_data(cls, task: str, mode: str | None = None) -> tuple[str, ...]:
+        """The dataset types of ``task`` that have data: ``real`` where a recipe exists, agent data where shipped."""
+        from loco_mujoco.agent_datasets import agent_recipe
+        from loco_mujoco.datasets.registry import DatasetUnavailableError, variants
+
+        types = []
+        try:
+            if variants(cls, task):
+                types.append(DEFAULT_DATASET_TYPE)
+        except DatasetUnavailableError:
+            pass
+        base = ".".join([cls.__name__, task] + ([mode] if mode else []))
+        types += [t for t in cls.DATASET_TYPES if t != DEFAULT_DATASET_TYPE and agent_recipe(f"{base}.{t}")]
+        return tuple(types)
+
+    def _agent_dataset_settings(self, task: str, mode: str | None, dataset_type: str,
+                                given: dict[str, Any]) -> dict[str, Any]:
+        """``given`` env settings completed by those the agent dataset was recorded with; a conflict raises."""
+        from loco_mujoco.agent_datasets import agent_recipe, recipe_settings
+
+        name = ".".join([type(self).__name__, task] + ([mode] if mode else []) + [dataset_type])
+        if agent_recipe(name) is None:
+            have = self.dataset_types_with_data(task, mode)
+            raise ValueError(f"{name} has no data: {type(self).__name__}.{task} has no '{dataset_type}' dataset. "
+                             f"Dataset types with data for it: {', '.join(have) or 'none'}"
+                             + ("; or pass dataset_path= a dataset file" if dataset_type != "real" else ""))
+        out = dict(given)
+        for key, value in recipe_settings(name).items():
+            if given.get(key) is None:
+                out[key] = value
+            elif given[key] != value:
+                raise ValueError(f"{name} was recorded with {key}={value!r}, but {key}={given[key]!r} was given; "
+                                 f"leave {key} unset to use the dataset's setting, or use the real dataset")
+        return out
+
+
     @classmethod
     def make(cls, name: str, **kwargs: Any) -> LocoEnv:
         """Build an environment from a task name ``<Env>.<task>[.<mode>][.<dataset_type>]``."""

@@ -44,16 +44,22 @@ def environment_class(name: str) -> type[LocoEnv]:
     return _ENVIRONMENTS[name]
 
 
-def list_tasks() -> list[str]:
-    """Every valid task name: each env's tasks and modes, bare and with each dataset type."""
+def list_tasks(with_data: bool = False) -> list[str]:
+    """Every valid task name: each env's tasks and modes, bare and with each dataset type.
+
+    ``with_data=True`` keeps only the names whose dataset exists (a recipe for real data, a shipped agent
+    dataset for ``perfect`` and ``preference``): the names ``LocoEnv.make`` builds without an error.
+    """
     names = []
     for env_name in sorted(_ENVIRONMENTS):
         cls = _ENVIRONMENTS[env_name]
         for task in cls.TASKS:
             for mode in cls.MODES or (None,):
                 base = ".".join([env_name, task] + ([mode] if mode else []))
-                names.append(base)
-                names.extend(f"{base}.{dt}" for dt in cls.DATASET_TYPES)
+                types = cls.dataset_types_with_data(task, mode) if with_data else cls.DATASET_TYPES
+                if not with_data or DEFAULT_DATASET_TYPE in types:
+                    names.append(base)
+                names.extend(f"{base}.{dt}" for dt in cls.DATASET_TYPES if dt in types)
     return names
 
 

@@ -40,11 +40,12 @@ class TrajectoryMixin:
             elif self.dataset_type == "real":
                 from loco_mujoco.datasets.registry import load_dataset
                 self._dataset = load_dataset(type(self), self.task_name, self.dataset_variant, mode=self.mode)
-            else:
-                from loco_mujoco.datasets.registry import DatasetUnavailableError
-                raise DatasetUnavailableError(
-                    f"{type(self).__name__}.{self.task_name} has no '{self.dataset_type}' dataset yet; "
-                    "use dataset_type='real' or pass dataset_path=")
+            else:  # perfect / preference: rolled out by our agents, built into the cache on first use
+                from loco_mujoco.agent_datasets import agent_dataset_path
+
+                name = ".".join([type(self).__name__, self.task_name] + ([self.mode] if self.mode else [])
+                                + [self.dataset_type])
+                self._dataset = TrajectoryDataset.load(agent_dataset_path(name))
             if self.init_step_no is not None and self.init_step_no >= self._dataset.n_frames:
                 raise ValueError(f"init_step_no={self.init_step_no} but the dataset has "
                                  f"{self._dataset.n_frames} frames")
@@ -142,8 +143,8 @@ class TrajectoryMixin:
         idx = self.transition_frames()
         last = np.zeros(len(idx), dtype=bool)
         last[np.searchsorted(idx, ends - 1)] = True
-        out = {"states": obs[idx], "next_states": obs[idx + 1], "absorbing": np.zeros(len(idx), dtype=bool),
-               "last": last}
+        absorbing = ds.absorbing[idx + 1].astype(bool) if ds.absorbing is not None else np.zeros(len(idx), dtype=bool)
+        out = {"states": obs[idx], "next_states": obs[idx + 1], "absorbing": absorbing, "last": last}
         if ds.actions is not None:
             out["actions"] = ds.actions[idx]
         return out

@@ -20,7 +20,9 @@ class TrajectoryDataset:
     """Trajectories stacked in time: ``qpos`` (T, nq) and ``qvel`` (T, nv) in the layout of ``joint_names``.
 
     Trajectory ``i`` spans rows ``split_points[i]:split_points[i + 1]``. ``metadata`` is JSON: sources,
-    licences, frame rate, mean speed, quality figures.
+    licences, frame rate, mean speed, quality figures. Datasets rolled out by agents also hold ``actions``
+    (the action taken at each frame; NaN at a trajectory's last frame), ``observations`` (the env's
+    observation at each frame) and ``absorbing`` (True at a frame the env reported as absorbing).
     """
 
     qpos: np.ndarray
@@ -30,6 +32,9 @@ class TrajectoryDataset:
     joint_names: tuple[str, ...]
     metadata: dict = field(default_factory=dict)
     actions: np.ndarray | None = None
+    observations: np.ndarray | None = None
+    absorbing: np.ndarray | None = None
+    source_file: Path | None = field(default=None, compare=False)  # the file it was loaded from, if any
 
     def __post_init__(self) -> None:
         self.split_points = np.asarray(self.split_points, dtype=np.int64)
@@ -39,6 +44,10 @@ class TrajectoryDataset:
             raise ValueError(f"split_points {sp.tolist()} must rise from 0 to {len(self.qpos)} in steps of 2 or more")
         if len(self.qvel) != len(self.qpos):
             raise ValueError(f"qpos has {len(self.qpos)} rows but qvel has {len(self.qvel)}")
+        for name in ("actions", "observations", "absorbing"):
+            value = getattr(self, name)
+            if value is not None and len(value) != len(self.qpos):
+                raise ValueError(f"{name} has {len(value)} rows but qpos has {len(self.qpos)}")
 
     @property
     def n_trajectories(self) -> int:
@@ -66,8 +75,9 @@ class TrajectoryDataset:
         arrays = {"qpos": self.qpos, "qvel": self.qvel, "split_points": self.split_points,
                   "frequency": np.array(self.frequency), "joint_names": np.array(self.joint_names),
                   "metadata": np.array(json.dumps(self.metadata, sort_keys=True)), "format": np.array(FORMAT)}
-        if self.actions is not None:
-            arrays["actions"] = self.actions
+        for name in ("actions", "observations", "absorbing"):
+            if getattr(self, name) is not None:
+                arrays[name] = getattr(self, name)
         write_npz_deterministic(path, arrays)
         return path
 
@@ -83,7 +93,8 @@ class TrajectoryDataset:
                 return cls(qpos=data["qpos"], qvel=data["qvel"], split_points=data["split_points"],
                            frequency=float(data["frequency"]), joint_names=tuple(str(j) for j in data["joint_names"]),
                            metadata=json.loads(str(data["metadata"])),
-                           actions=data["actions"] if "actions" in data.files else None)
+                           **{name: data[name] if name in data.files else None
+                              for name in ("actions", "observations", "absorbing")}, source_file=path)
         except (zipfile.BadZipFile, OSError, KeyError, ValueError, EOFError) as err:
             if isinstance(err, MotionFormatError):
                 raise
