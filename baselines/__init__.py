@@ -1,4 +1,5 @@
-"""Adversarial imitation-learning baselines (GAIL, VAIL, GAIfO) for loco_mujoco, on Mushroom-RL's ``Core``.
+"""Imitation-learning baselines for loco_mujoco: GAIL, VAIL, GAIfO (adversarial, on Mushroom-RL's ``Core``) and
+behaviour cloning (offline).
 
 Each algorithm lives in one module and is a Mushroom-RL ``Agent``; ``make_agent`` builds one by name from a
 plain config dict (what a launcher reads from YAML)::
@@ -9,7 +10,7 @@ plain config dict (what a launcher reads from YAML)::
 
     env = lm.LocoEnv.make("UnitreeH1.walk")
     agent = make_agent("vail", env, config={"std_0": 0.8}, seed=0)
-    Core(agent, env).learn(n_steps=10_000, n_steps_per_fit=agent.config.n_steps_per_fit, quiet=True)
+    Core(agent, env).learn(n_steps=10_000, n_steps_per_fit=1000, quiet=True)
     torch.save(agent.state_dict(), "ckpt.pt")      # everything needed to resume exactly
 """
 
@@ -20,15 +21,16 @@ from typing import Any
 from loco_mujoco import _compat  # noqa: F401  (patches mushroom-rl for our torch / numpy before first use)
 
 # isort: split
+from baselines.bc.bc import BC, BCConfig
 from baselines.gaifo.gaifo import GAIfO, GAIfOConfig
 from baselines.gail.gail import GAIL, GAILConfig
 from baselines.vail.vail import VAIL, VAILConfig
 
-ALGORITHMS = {"gail": GAIL, "vail": VAIL, "gaifo": GAIfO}
+ALGORITHMS = {"gail": GAIL, "vail": VAIL, "gaifo": GAIfO, "bc": BC}
 
 
 def make_agent(algorithm: str, env: Any, config: dict[str, Any] | None = None, seed: int = 0, **kwargs: Any):
-    """Build the agent ``algorithm`` (``gail``, ``vail`` or ``gaifo``) for ``env``; unknown config keys raise."""
+    """Build the agent ``algorithm`` (``gail``, ``vail``, ``gaifo``, ``bc``) for ``env``; unknown config keys raise."""
     try:
         cls = ALGORITHMS[algorithm.lower()]
     except KeyError:
@@ -36,4 +38,5 @@ def make_agent(algorithm: str, env: Any, config: dict[str, Any] | None = None, s
     return cls.from_env(env, config=config, seed=seed, **kwargs)
 
 
-__all__ = ["ALGORITHMS", "GAIL", "GAILConfig", "GAIfO", "GAIfOConfig", "VAIL", "VAILConfig", "make_agent"]
+__all__ = ["ALGORITHMS", "BC", "BCConfig", "GAIL", "GAILConfig", "GAIfO", "GAIfOConfig", "VAIL", "VAILConfig",
+           "make_agent"]

@@ -1,14 +1,18 @@
-"""Run configurations from YAML: shared defaults, then the algorithm's defaults, then the task's file.
+"""Run configurations from YAML: shared defaults, the algorithm family's, the algorithm's, then the task's file.
 
 Layout (``configs/`` at the repository root)::
 
-    configs/defaults.yaml            env / train / agent sections shared by every run, plus
-                                     ``algorithms: {gail: {...}, vail: {...}, gaifo: {...}}`` agent defaults
-    configs/<algorithm>/<task>.yaml  what this task changes for this algorithm (env / train / agent sections)
+    configs/defaults.yaml            env / train sections shared by every run; ``families: {adversarial: {train,
+                                     agent}, offline: {...}}`` per algorithm family; ``algorithms: {vail: {...}}``
+                                     agent defaults per algorithm
+    configs/<algorithm>/<task>.yaml  what this task changes for this algorithm (env / train / agent sections);
+                                     ``<task>.<dataset type>`` uses the base task's file unless it has its own
 
-Sections are merged key by key in that order. Every key is checked: ``env`` keys against the environment's
-constructor, ``agent`` keys against the algorithm's config dataclass, ``train`` keys against
-:class:`TrainConfig`. Anything unknown or malformed raises :class:`ConfigError` naming the file and the key.
+Sections are merged key by key in that order, then command-line overrides; every value remembers the file
+(and section path) it came from (:attr:`RunConfig.provenance`, ``launch.py --print-config``). Every key is
+checked: ``env`` keys against the environment's constructor, ``agent`` keys against the algorithm's config
+dataclass, ``train`` keys against :class:`TrainConfig`. Anything unknown or malformed raises
+:class:`ConfigError` naming the file and the key.
 """
 
 from __future__ import annotations
@@ -23,12 +27,13 @@ from typing import Any
 
 import yaml
 
-from baselines.common.adversarial import AdversarialConfig, convert_config_value
+from baselines.common.agent_config import convert_config_value
 
 CONFIG_DIR = Path(__file__).resolve().parent.parent / "configs"
 SECTIONS = ("env", "train", "agent")
 # Environment constructor arguments a config may not set: the task name and the seed come from the launcher.
 _ENV_RESERVED = {"self", "task", "mode", "dataset_type", "seed"}
+EXPERT_ACTIONS = ("dataset", "inverse_dynamics", "auto")
 
 
 class ConfigError(ValueError):
@@ -44,19 +49,21 @@ class TrainConfig:
     n_eval_episodes: int = 10  # deterministic evaluation episodes per epoch
     n_eval_episodes_stochastic: int = 0  # additional stochastic evaluation episodes per epoch (0: none)
     eval_seed: int = 12345  # seed of the evaluation environment (the same start states at every epoch)
-    expert_actions: str = "dataset"  # "dataset" or "inverse_dynamics" (GAIL on data without actions)
+    # "dataset", "inverse_dynamics" (GAIL on data without actions) or "auto" (the dataset's where it has them)
+    expert_actions: str = "dataset"
+    n_steps_per_fit: int = 1000  # on-policy: environment steps between fits; offline: 1
 
-    def validate(self, n_steps_per_fit: int) -> None:
-        for name in ("n_steps", "epoch_steps", "n_eval_episodes"):
+    def validate(self) -> None:
+        for name in ("n_steps", "epoch_steps", "n_eval_episodes", "n_steps_per_fit"):
             if getattr(self, name) < 1:
                 raise ConfigError(f"train.{name} must be >= 1, got {getattr(self, name)}")
         if self.n_eval_episodes_stochastic < 0:
             raise ConfigError(f"train.n_eval_episodes_stochastic must be >= 0, got {self.n_eval_episodes_stochastic}")
-        if self.epoch_steps % n_steps_per_fit:
-            raise ConfigError(f"train.epoch_steps ({self.epoch_steps}) must be a multiple of agent.n_steps_per_fit "
-                              f"({n_steps_per_fit}) so that every epoch ends on a fit")
-        if self.expert_actions not in ("dataset", "inverse_dynamics"):
-            raise ConfigError(f"train.expert_actions must be 'dataset' or 'inverse_dynamics', "
+        if self.epoch_steps % self.n_steps_per_fit:
+            raise ConfigError(f"train.epoch_steps ({self.epoch_steps}) must be a multiple of train.n_steps_per_fit "
+                              f"({self.n_steps_per_fit}) so that every epoch ends on a fit")
+        if self.expert_actions not in EXPERT_ACTIONS:
+            raise ConfigError(f"train.expert_actions must be one of {', '.join(EXPERT_ACTIONS)}, "
                               f"got {self.expert_actions!r}")
 
 
@@ -69,9 +76,10 @@ class RunConfig:
     seed: int
     env: dict[str, Any]
     train: TrainConfig
-    agent: AdversarialConfig
+    agent: Any  # the algorithm's config dataclass (AdversarialConfig, BCConfig ...)
     sources: list[str]  # the files merged, in order
     init_from: dict[str, Any] | None = None  # warm start: the checkpoint, its steps and its run config
+    provenance: dict[str, str] = dataclasses.field(default_factory=dict)  # "section.key" -> where it was set
 
     def to_dict(self) -> dict[str, Any]:
         out = {"task": self.task, "algorithm": self.algorithm, "seed": self.seed, "env": dict(self.env),
@@ -82,7 +90,12 @@ class RunConfig:
 
 
 def config_path(task: str, algorithm: str, config_dir: Path = CONFIG_DIR) -> Path:
-    return Path(config_dir) / algorithm / f"{task}.yaml"
+    """The task file of ``algorithm`` on ``task``: its own, or for a dataset type its base task's."""
+    own = Path(config_dir) / algorithm / f"{task}.yaml"
+    parts = task.split(".")
+    if own.exists() or parts[-1] not in ("real", "perfect", "preference"):
+        return own
+    return Path(config_dir) / algorithm / f"{'.'.join(parts[:-1])}.yaml"
 
 
 def load_run_config(task: str, algorithm: str, seed: int = 0, config_dir: str | Path = CONFIG_DIR,
@@ -93,10 +106,22 @@ def load_run_config(task: str, algorithm: str, seed: int = 0, config_dir: str | 
 
     if algorithm not in ALGORITHMS:
         raise ConfigError(f"unknown algorithm {algorithm!r}; valid: {', '.join(ALGORITHMS)}")
+    family = ALGORITHMS[algorithm].family
     parsed = parse_task_name(task)  # raises with suggestions
     config_dir = Path(config_dir)
     defaults_file = config_dir / "defaults.yaml"
-    defaults = read_yaml(defaults_file, allowed=(*SECTIONS, "algorithms"))
+    defaults = read_yaml(defaults_file, allowed=(*SECTIONS, "families", "algorithms"))
+    families = defaults.pop("families", {}) or {}
+    _require_mapping(families, defaults_file, "families")
+    if family not in families:
+        raise ConfigError(f"{defaults_file}: no 'families: {family}:' section for {algorithm}; "
+                          f"families there: {', '.join(families) or 'none'}")
+    family_config = families[family] or {}
+    _require_mapping(family_config, defaults_file, f"families.{family}")
+    unknown = sorted(set(family_config) - set(SECTIONS))
+    if unknown:
+        raise ConfigError(f"{defaults_file}: unknown sections {unknown} under families.{family}; valid: "
+                          f"{', '.join(SECTIONS)}")
     algorithm_defaults = defaults.pop("algorithms", {}) or {}
     _require_mapping(algorithm_defaults, defaults_file, "algorithms")
     unknown = sorted(set(algorithm_defaults) - set(ALGORITHMS))
@@ -111,13 +136,17 @@ def load_run_config(task: str, algorithm: str, seed: int = 0, config_dir: str | 
     task_config = read_yaml(task_file, allowed=SECTIONS)
 
     merged: dict[str, dict[str, Any]] = {s: {} for s in SECTIONS}
-    layers = [(defaults_file, defaults), (defaults_file, {"agent": algorithm_defaults.get(algorithm) or {}}),
-              (task_file, task_config), ("overrides", overrides or {})]
+    provenance: dict[str, str] = {}
+    shown_defaults, shown_task = _shown(defaults_file), _shown(task_file)
+    layers = [(shown_defaults, defaults), (f"{shown_defaults} [families.{family}]", family_config),
+              (f"{shown_defaults} [algorithms.{algorithm}]", {"agent": algorithm_defaults.get(algorithm) or {}}),
+              (shown_task, task_config), ("command line (--set/--steps/--threads)", overrides or {})]
     for source, layer in layers:
         for section in SECTIONS:
             values = layer.get(section) or {}
             _require_mapping(values, source, section)
             merged[section].update(values)
+            provenance.update({f"{section}.{key}": source for key in values})
 
     agent_class = ALGORITHMS[algorithm].config_class
     try:
@@ -125,15 +154,39 @@ def load_run_config(task: str, algorithm: str, seed: int = 0, config_dir: str | 
     except ValueError as err:
         raise ConfigError(f"agent section ({task_file} on {defaults_file}): {err}") from None
     train = _dataclass_from_dict(TrainConfig, merged["train"], "train", task_file)
-    train.validate(agent.n_steps_per_fit)
+    train.validate()
     env_class = environment_class(parsed.env)
     _check_env_keys(env_class, merged["env"], task_file)
+    for section, values in (("agent", agent.to_dict()), ("train", dataclasses.asdict(train))):
+        for key in values:
+            provenance.setdefault(f"{section}.{key}", f"{type(agent if section == 'agent' else train).__name__} "
+                                                     "default (baselines)")
     return RunConfig(task=task, algorithm=algorithm, seed=int(seed), env=merged["env"], train=train, agent=agent,
-                     sources=[str(defaults_file), str(task_file)])
+                     sources=[str(defaults_file), str(task_file)], provenance=provenance)
+
+
+def _shown(path: Path) -> str:
+    """``path`` relative to the working directory where it lies below it (shorter in printed provenance)."""
+    try:
+        return Path(path).resolve().relative_to(Path.cwd().resolve()).as_posix()
+    except ValueError:
+        return str(path)
+
+
+def format_config(run: RunConfig) -> str:
+    """The resolved configuration as YAML, each value followed by where it came from."""
+    lines = [f"# {run.algorithm} on {run.task}, seed {run.seed}", ""]
+    sections = {"env": run.env, "train": dataclasses.asdict(run.train), "agent": run.agent.to_dict()}
+    for section, values in sections.items():
+        lines.append(f"{section}:")
+        for key, value in values.items():
+            text = yaml.safe_dump({key: value}, default_flow_style=True, width=1000).strip()[1:-1]
+            lines.append(f"  {text:<44} # {run.provenance.get(f'{section}.{key}', '?')}")
+    return "\n".join(lines)
 
 
 def parse_overrides(items: list[str]) -> dict[str, dict[str, Any]]:
-    """``["agent.n_steps_per_fit=5000", ...]`` as override sections; values are read as YAML (numbers, lists)."""
+    """``["train.n_steps_per_fit=5000", ...]`` as override sections; values are read as YAML (numbers, lists)."""
     overrides: dict[str, dict[str, Any]] = {s: {} for s in SECTIONS}
     for item in items:
         name, sep, text = item.partition("=")

@@ -32,6 +32,7 @@ from baselines.common.evaluation import evaluate
 from baselines.common.expert_data import ExpertData, kinematic_obs_mask
 from baselines.common.logger import CSVLogger
 from baselines.config import RunConfig
+from loco_mujoco.evaluation.protocol import evaluation_env
 from loco_mujoco.evaluation.references import references
 
 CHECKPOINT = "checkpoint.pt"
@@ -59,12 +60,18 @@ def dataset_identity(env: Any) -> dict[str, Any]:
 
 
 def make_expert(run: RunConfig, env: Any) -> ExpertData:
-    """The expert transitions; with ``train.expert_actions: inverse_dynamics`` actions derived by inverse dynamics."""
+    """The expert transitions; with ``train.expert_actions: inverse_dynamics`` actions derived by inverse dynamics
+    (``auto``: the dataset's actions where it has them, inverse dynamics otherwise)."""
     dataset = env.create_dataset()
-    if run.train.expert_actions == "inverse_dynamics":
+    mode = run.train.expert_actions
+    if mode == "inverse_dynamics" or (mode == "auto" and "actions" not in dataset):
         from baselines.common.inverse_dynamics import inverse_dynamics_actions
 
         dataset = {**dataset, "actions": inverse_dynamics_actions(env)}
+    from baselines import ALGORITHMS
+
+    if ALGORITHMS[run.algorithm].family == "offline":  # a policy sees everything: clone on the full observation
+        return ExpertData(dataset, np.ones(env.info.observation_space.shape[0], dtype=bool))
     return ExpertData(dataset, kinematic_obs_mask(env))
 
 
@@ -98,11 +105,21 @@ def run_config_from_checkpoint(state: dict[str, Any]) -> RunConfig:
     from baselines import ALGORITHMS
     from baselines.config import TrainConfig
 
-    c = state["run_config"]
+    c = migrate_run_config(state["run_config"])
     agent = ALGORITHMS[c["algorithm"]].config_class.from_dict(c["agent"])
     return RunConfig(task=c["task"], algorithm=c["algorithm"], seed=int(c["seed"]), env=dict(c["env"]),
                      train=TrainConfig(**c["train"]), agent=agent, sources=list(c["sources"]),
                      init_from=c.get("init_from"))
+
+
+def migrate_run_config(c: dict[str, Any]) -> dict[str, Any]:
+    """A run config of an older checkpoint in today's layout: ``n_steps_per_fit`` moved from agent to train."""
+    c = {**c, "agent": dict(c["agent"]), "train": dict(c["train"])}
+    if "n_steps_per_fit" in c["agent"]:
+        c["train"]["n_steps_per_fit"] = c["agent"].pop("n_steps_per_fit")
+    if c.get("init_from"):
+        c["init_from"] = {**c["init_from"], "run_config": migrate_run_config(c["init_from"]["run_config"])}
+    return c
 
 
 class Trainer:
@@ -148,7 +165,7 @@ class Trainer:
         torch.manual_seed(run.seed)
         np.random.seed(run.seed)
         self.env, self.agent = build(run)
-        self.eval_env = make_env(run, seed=run.train.eval_seed)
+        self.eval_env = evaluation_env(run.task, run.env, seed=run.train.eval_seed)  # the real task's starts
         self.epoch, self.steps, self.wall_s = 0, 0, 0.0
         if state is not None:
             self._restore(state)
@@ -169,11 +186,11 @@ class Trainer:
         try:
             while self.steps < run.train.n_steps:
                 n = min(run.train.epoch_steps, run.train.n_steps - self.steps)
-                n -= n % run.agent.n_steps_per_fit
+                n -= n % run.train.n_steps_per_fit
                 if n == 0:
                     break
                 start = time.perf_counter()
-                core.learn(n_steps=n, n_steps_per_fit=run.agent.n_steps_per_fit, quiet=True)
+                self._learn(core, n)
                 train_s = time.perf_counter() - start
                 self.steps += n
                 self.epoch += 1
@@ -192,8 +209,15 @@ class Trainer:
             self.logger.close()
         return last_eval
 
+    def _learn(self, core: Core, n: int) -> None:
+        """``n`` steps of training: environment steps for on-policy agents, gradient steps for offline ones."""
+        if getattr(self.agent, "offline", False):
+            self.agent.fit_offline(n, callback=self._bar.update)
+        else:
+            core.learn(n_steps=n, n_steps_per_fit=self.run.train.n_steps_per_fit, quiet=True)
+
     def _on_fit(self, dataset: list) -> None:
-        self._bar.update(self.run.agent.n_steps_per_fit)
+        self._bar.update(self.run.train.n_steps_per_fit)
 
     def evaluate(self) -> dict[str, float]:
         """Deterministic (and optionally stochastic) evaluation on the evaluation env, re-seeded each time."""

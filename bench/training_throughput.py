@@ -39,6 +39,7 @@ from baselines import make_agent  # noqa: E402
 from baselines.common.fast_trpo import default_num_threads  # noqa: E402
 
 ENV = "UnitreeH1.walk"
+STEPS_PER_FIT = 1000  # environment steps per fit: train.n_steps_per_fit of configs/defaults.yaml (adversarial)
 LABELS = {"fast": "fast (FastTRPO)", "mushroom": "mushroom (unmodified TRPO)"}
 
 # Components shown in the profile: (label, file name, function name); cumulative time of that function.
@@ -77,14 +78,14 @@ def build(env: lm.LocoEnv, learner: str, threads: int, warmup: int) -> Core:
     torch.set_num_threads(threads)
     core = Core(agent, env)
     if warmup:
-        core.learn(n_steps=warmup, n_steps_per_fit=agent.config.n_steps_per_fit, quiet=True)
+        core.learn(n_steps=warmup, n_steps_per_fit=STEPS_PER_FIT, quiet=True)
     return core
 
 
 def timed_run(core: Core, steps: int) -> float:
     """Env steps per second of ``Core.learn`` over ``steps`` steps (includes waiting for background work)."""
     t0 = time.perf_counter()
-    core.learn(n_steps=steps, n_steps_per_fit=core.agent.config.n_steps_per_fit, quiet=True)
+    core.learn(n_steps=steps, n_steps_per_fit=STEPS_PER_FIT, quiet=True)
     return steps / (time.perf_counter() - t0)
 
 
@@ -117,7 +118,7 @@ def profile_run(env: lm.LocoEnv, variant: tuple[str, int], warmup: int, steps: i
     profiler = cProfile.Profile()
     t0 = time.perf_counter()
     profiler.enable()
-    core.learn(n_steps=steps, n_steps_per_fit=core.agent.config.n_steps_per_fit, quiet=True)
+    core.learn(n_steps=steps, n_steps_per_fit=STEPS_PER_FIT, quiet=True)
     profiler.disable()
     wall = time.perf_counter() - t0
     stats = pstats.Stats(profiler).stats  # {(file, line, function): (cc, nc, tottime, cumtime, callers)}

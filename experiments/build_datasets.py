@@ -4,6 +4,7 @@
     python experiments/build_datasets.py --list     # sources, licence, seconds, speed, quality; agents, returns
     python experiments/build_datasets.py --task UnitreeH1.walk --rebuild
     python experiments/build_datasets.py --task HumanoidTorque4Ages.walk.2
+    python experiments/build_datasets.py --export-minari UnitreeH1.walk.perfect [--minari-id ID] [--overwrite]
 """
 
 from __future__ import annotations
@@ -46,7 +47,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--list", action="store_true", help="print each dataset's provenance and quality")
     parser.add_argument("--task", help="only this Env.task")
     parser.add_argument("--rebuild", action="store_true", help="rebuild even if cached")
+    parser.add_argument("--export-minari", metavar="TASK",
+                        help="write TASK's agent dataset (e.g. UnitreeH1.walk.perfect) as a local Minari dataset")
+    parser.add_argument("--minari-id", metavar="ID", help="Minari id (default loco-mujoco/<TASK with dashes>-v0)")
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing Minari dataset with that id")
     args = parser.parse_args(argv)
+    if args.export_minari is None and (args.minari_id is not None or args.overwrite):
+        parser.error("--minari-id and --overwrite go with --export-minari TASK")
+    if args.export_minari is not None:
+        if args.list or args.task or args.rebuild:
+            parser.error("--export-minari does not combine with --list, --task or --rebuild")
+        return export_minari_dataset(args.export_minari, args.minari_id, args.overwrite)
     for env_cls, task, mode, variant in real_datasets(args.task):
         ds = load_dataset(env_cls, task, variant, rebuild=args.rebuild, progress=not args.list, mode=mode)
         meta = ds.metadata
@@ -67,6 +78,24 @@ def main(argv: list[str] | None = None) -> int:
               f"flight {100 * q['flight_fraction']:.0f}%")
     if not args.task:
         list_agent_datasets(args.list, args.rebuild)
+    return 0
+
+
+def export_minari_dataset(task: str, dataset_id: str | None, overwrite: bool) -> int:
+    """Export ``task``'s agent dataset to Minari and print its id, size and path; 1 with the reason on failure."""
+    from loco_mujoco.minari_export import export_minari
+
+    try:
+        dataset_id = export_minari(task, dataset_id, overwrite)
+    except (ValueError, FileExistsError, ImportError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 1
+    import minari
+    from minari.storage import get_dataset_path
+
+    dataset = minari.load_dataset(dataset_id)
+    print(f"{dataset_id}: {dataset.total_episodes} episodes, {dataset.total_steps:,} transitions, "
+          f"at {get_dataset_path(dataset_id)}")
     return 0
 
 

@@ -125,7 +125,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("give a checkpoint to evaluate, or --references")
 
     from baselines.common.evaluation import evaluate_agent
-    from baselines.training import build, load_checkpoint, make_env, run_config_from_checkpoint
+    from baselines.training import build, load_checkpoint, run_config_from_checkpoint
 
     try:
         state = load_checkpoint(args.checkpoint)
@@ -135,7 +135,7 @@ def main(argv: list[str] | None = None) -> int:
     run = run_config_from_checkpoint(state)
     _, agent = build(run)
     agent.load_state_dict(state["agent"])
-    env = make_env(run, seed=args.seed)
+    env = protocol.evaluation_env(run.task, run.env, seed=args.seed)  # the real task, whatever data it trained on
     print(f"{run.algorithm} on {run.task}, seed {run.seed}: epoch {state['epoch']}, {state['steps']:,} training steps")
     refs = references(run.task, run.env, progress=True)
     print(f"references ({run.task}, {', '.join(f'{k}={v}' for k, v in run.env.items())}): expert R "

@@ -27,7 +27,7 @@ def main(argv: list[str] | None = None) -> int:
     evaluation = None
     if not args.no_eval:
         from baselines.common.evaluation import evaluate_agent
-        from baselines.training import build, load_checkpoint, make_env, run_config_from_checkpoint
+        from baselines.training import build, load_checkpoint, run_config_from_checkpoint
         from loco_mujoco.evaluation import protocol
         from loco_mujoco.evaluation.references import references
 
@@ -35,8 +35,8 @@ def main(argv: list[str] | None = None) -> int:
         run = run_config_from_checkpoint(state)
         _, agent = build(run)
         agent.load_state_dict(state["agent"])
-        ev = evaluate_agent(agent, make_env(run, protocol.SEED), protocol.EPISODES, True, protocol.SEED,
-                            progress=True)
+        ev = evaluate_agent(agent, protocol.evaluation_env(run.task, run.env), protocol.EPISODES, True,
+                            protocol.SEED, progress=True)
         refs = references(run.task, run.env)
         from loco_mujoco.evaluation.intervals import summarize
 

@@ -1,6 +1,7 @@
 """Train a baseline on a task: ``python experiments/launch.py --env UnitreeH1.walk --algo vail``.
 
-The configuration comes from ``configs/defaults.yaml`` and ``configs/<algo>/<task>.yaml``. The run directory
+The configuration comes from ``configs/defaults.yaml`` (shared, per algorithm family, per algorithm) and
+``configs/<algo>/<task>.yaml``; ``--print-config`` shows the result and where each value came from. The run directory
 (``--out``, default ``runs/<task>/<algo>/seed<N>``) receives the resolved config, ``progress.csv``,
 TensorBoard logs and ``checkpoint.pt`` after every epoch. Ctrl-C (or a kill) loses at most the epoch in
 progress; ``--resume`` continues bit for bit from the last checkpoint, and ``--steps`` may extend the run.
@@ -16,7 +17,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # run from a checkout without installing
 
 from baselines import ALGORITHMS  # noqa: E402
-from baselines.config import CONFIG_DIR, ConfigError, load_run_config, parse_overrides  # noqa: E402
+from baselines.config import CONFIG_DIR, ConfigError, format_config, load_run_config, parse_overrides  # noqa: E402
 from baselines.training import Trainer  # noqa: E402
 
 
@@ -25,18 +26,21 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--env", required=True, help="task name, e.g. UnitreeH1.walk")
     parser.add_argument("--algo", required=True, choices=sorted(ALGORITHMS), help="algorithm")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--steps", type=int, help="total environment steps (default: the config's train.n_steps)")
+    parser.add_argument("--steps", type=int, help="total training steps: environment steps, or gradient steps for "
+                                                     "offline algorithms such as bc (default: train.n_steps)")
     parser.add_argument("--epoch-steps", type=int, help="steps between evaluations / checkpoints (default: config)")
     parser.add_argument("--threads", type=int, help="torch threads of the learner (default: the config's)")
     parser.add_argument("--out", help="run directory (default: runs/<task>/<algo>/seed<N>)")
     parser.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
-                        help="override one config value (repeatable), e.g. --set agent.n_steps_per_fit=5000")
+                        help="override one config value (repeatable), e.g. --set train.n_steps_per_fit=5000")
     parser.add_argument("--init-from", metavar="CHECKPOINT",
                         help="warm start: a new run in --out that loads this checkpoint's agent (same task and "
                              "algorithm) and continues its step count under the current configuration")
     parser.add_argument("--config-dir", default=str(CONFIG_DIR), help="directory of the YAML configs")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("--print-config", action="store_true",
+                        help="print the resolved configuration and where each value came from, then exit")
     return parser.parse_args(argv)
 
 
@@ -62,6 +66,9 @@ def main(argv: list[str] | None = None) -> int:
     except (ConfigError, ValueError) as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
+    if args.print_config:
+        print(format_config(run))
+        return 0
     out = Path(args.out or Path("runs") / args.env / args.algo / f"seed{args.seed}")
     try:
         trainer = Trainer(run, out, resume=args.resume, progress=not args.quiet, init_from=args.init_from,

@@ -31,7 +31,7 @@ from baselines.common.expert_data import kinematic_obs_mask  # noqa: E402
 
 STEPS_PER_FIT = 200
 # One torch thread: fast on a busy machine, and the same float results from run to run.
-SMALL = {"n_steps_per_fit": STEPS_PER_FIT, "n_threads": 1}
+SMALL = {"n_threads": 1}
 
 
 @pytest.fixture(scope="module", autouse=True)

@@ -30,8 +30,8 @@ REPO = Path(__file__).resolve().parent.parent
 BASE_TASKS = [t for t in list_tasks() if t.split(".")[-1] not in DATASET_TYPES]
 # A run small enough for a test: tiny networks, 200 steps per fit, 400 per epoch, short evaluation episodes.
 TINY = {"env": {"horizon": 100},
-        "train": {"n_steps": 1200, "epoch_steps": 400, "n_eval_episodes": 2},
-        "agent": {"n_steps_per_fit": 200, "n_threads": 1, "policy_hidden": [32], "critic_hidden": [32],
+        "train": {"n_steps": 1200, "epoch_steps": 400, "n_eval_episodes": 2, "n_steps_per_fit": 200},
+        "agent": {"n_threads": 1, "policy_hidden": [32], "critic_hidden": [32],
                   "disc_hidden": [32], "disc_batch_size": 128, "train_disc_every": 1}}
 
 
@@ -50,19 +50,36 @@ def test_every_task_has_a_valid_config_for_every_algorithm():
         assert files == set(BASE_TASKS), (algorithm, set(BASE_TASKS) ^ files)
         for task in BASE_TASKS:
             run = load_run_config(task, algorithm)
-            assert run.agent.n_steps_per_fit >= 1 and run.train.epoch_steps % run.agent.n_steps_per_fit == 0
+            assert run.train.n_steps_per_fit >= 1 and run.train.epoch_steps % run.train.n_steps_per_fit == 0
+            assert run.provenance["train.n_steps"].startswith(("configs/defaults.yaml", "configs/" + algorithm))
 
 
 def test_config_layers_merge_in_order(tmp_path):
     (tmp_path / "vail").mkdir()
     (tmp_path / "defaults.yaml").write_text(yaml.safe_dump({
-        "env": {"horizon": 500}, "train": {"n_steps": 1000}, "agent": {"std_0": 0.9, "max_kl": 0.01},
+        "env": {"horizon": 500}, "train": {"n_steps": 1000, "epoch_steps": 500},
+        "families": {"adversarial": {"train": {"n_steps_per_fit": 250}, "agent": {"std_0": 0.9, "max_kl": 0.01}},
+                     "offline": {"train": {"epoch_steps": 100, "n_steps_per_fit": 1}}},
         "algorithms": {"vail": {"std_0": 0.7, "latent_dim": 16}}}))
     (tmp_path / "vail" / "UnitreeH1.walk.yaml").write_text(yaml.safe_dump({"agent": {"latent_dim": 8}}))
     run = load_run_config("UnitreeH1.walk", "vail", seed=3, config_dir=tmp_path,
                           overrides={"train": {"n_steps": 2000}})
-    assert (run.env, run.train.n_steps, run.seed) == ({"horizon": 500}, 2000, 3)
+    assert (run.env, run.train.n_steps, run.train.n_steps_per_fit, run.seed) == ({"horizon": 500}, 2000, 250, 3)
     assert (run.agent.std_0, run.agent.max_kl, run.agent.latent_dim) == (0.7, 0.01, 8)
+    where = run.provenance
+    assert where["env.horizon"].endswith("defaults.yaml") and where["train.n_steps"].startswith("command line")
+    assert where["train.n_steps_per_fit"].endswith("[families.adversarial]")
+    assert where["agent.std_0"].endswith("[algorithms.vail]")
+    assert where["agent.latent_dim"].endswith("UnitreeH1.walk.yaml")
+    assert where["agent.critic_lr"] == "VAILConfig default (baselines)"
+    # a dataset type reuses its base task's file unless it has its own
+    assert load_run_config("UnitreeH1.walk.perfect", "vail", config_dir=tmp_path).agent.latent_dim == 8
+    (tmp_path / "vail" / "UnitreeH1.walk.perfect.yaml").write_text(yaml.safe_dump({"agent": {"latent_dim": 4}}))
+    assert load_run_config("UnitreeH1.walk.perfect", "vail", config_dir=tmp_path).agent.latent_dim == 4
+    (tmp_path / "bc").mkdir()
+    (tmp_path / "bc" / "UnitreeH1.walk.yaml").write_text("# nothing particular\n")
+    bc = load_run_config("UnitreeH1.walk", "bc", config_dir=tmp_path)  # its own family: no TRPO keys
+    assert bc.train.epoch_steps == 100 and not hasattr(bc.agent, "max_kl")
 
 
 @pytest.mark.parametrize("layer, match", [
@@ -70,8 +87,9 @@ def test_config_layers_merge_in_order(tmp_path):
     ({"agent": {"std_0": "wide"}}, r"std_0 must be float"),
     ({"env": {"random_strat": True}}, r"unknown env keys \['random_strat'\].*did you mean 'random_start'"),
     ({"train": {"n_step": 10}}, r"unknown train keys \['n_step'\].*did you mean 'n_steps'"),
-    ({"train": {"epoch_steps": 1500}}, r"multiple of agent.n_steps_per_fit"),
-    ({"train": {"expert_actions": "guess"}}, r"'dataset' or 'inverse_dynamics'"),
+    ({"train": {"epoch_steps": 1500}}, r"multiple of train.n_steps_per_fit"),
+    ({"train": {"expert_actions": "guess"}}, r"one of dataset, inverse_dynamics, auto"),
+    ({"agent": {"n_steps_per_fit": 500}}, r"unknown VAILConfig keys \['n_steps_per_fit'\]"),
     ({"trian": {}}, r"unknown sections \['trian'\]"),
     ({"agent": [1, 2]}, r"agent must be a mapping"),
 ])
@@ -98,9 +116,9 @@ def test_bad_yaml_missing_file_and_unknown_names_raise(tmp_path):
 
 
 def test_command_line_overrides_are_parsed_and_validated():
-    overrides = parse_overrides(["agent.n_steps_per_fit=5000", "agent.policy_hidden=[64, 32]", "env.horizon=500"])
+    overrides = parse_overrides(["train.n_steps_per_fit=5000", "agent.policy_hidden=[64, 32]", "env.horizon=500"])
     run = load_run_config("UnitreeH1.walk", "vail", overrides=overrides)
-    assert run.agent.n_steps_per_fit == 5000 and run.agent.policy_hidden == (64, 32) and run.env["horizon"] == 500
+    assert run.train.n_steps_per_fit == 5000 and run.agent.policy_hidden == (64, 32) and run.env["horizon"] == 500
     for bad, match in [("agent.max_kl", "SECTION.KEY=VALUE"), ("max_kl=0.1", "SECTION.KEY=VALUE"),
                        ("policy.max_kl=0.1", "unknown section 'policy'"), ("agent.max_kl=[0.1", "not valid YAML")]:
         with pytest.raises(ConfigError, match=match):
@@ -176,22 +194,22 @@ def test_warm_start_loads_the_agent_continues_the_step_count_and_records_its_sou
     Trainer(tiny_run(n_steps=400), tmp_path / "source", progress=False).train()
     source = load_checkpoint(tmp_path / "source")
     run = tiny_run(n_steps=800)
-    run.agent.n_steps_per_fit = 400  # the kind of change a warm start is for: a larger batch per fit
+    run.train.n_steps_per_fit = 400  # the kind of change a warm start is for: a larger batch per fit
     warm = Trainer(run, tmp_path / "warm", progress=False, init_from=tmp_path / "source")
     assert (warm.epoch, warm.steps) == (1, 400)
     loaded = {k: v for k, v in warm.agent.state_dict().items() if k != "config"}
     assert_identical(loaded, {k: v for k, v in source["agent"].items() if k != "config"})  # every tensor, loaded
-    assert warm.run.init_from["steps"] == 400 and warm.run.init_from["run_config"]["agent"]["n_steps_per_fit"] == 200
+    assert warm.run.init_from["steps"] == 400 and warm.run.init_from["run_config"]["train"]["n_steps_per_fit"] == 200
     warm.train()
     rows = progress_rows(tmp_path / "warm")
     assert [r["step"] for r in rows] == ["800"]  # only its own epochs, on the continued step count
     with (tmp_path / "warm" / "init_from_progress.csv").open(newline="") as f:  # the source's log, kept beside
         assert [r["step"] for r in csv.DictReader(f)] == ["400"]
     assert config_changes(warm.run.init_from["run_config"], warm.run.to_dict()) == {
-        "agent.n_steps_per_fit": (200, 400)}
+        "train.n_steps_per_fit": (200, 400)}
     saved = load_checkpoint(tmp_path / "warm")
     assert saved["run_config"]["init_from"]["checkpoint"] == str((tmp_path / "source" / "checkpoint.pt").resolve())
-    assert saved["run_config"]["agent"]["n_steps_per_fit"] == 400
+    assert saved["run_config"]["train"]["n_steps_per_fit"] == 400
     assert "init_from" in yaml.safe_load((tmp_path / "warm" / "config.yaml").read_text())
     with pytest.raises(ValueError, match="vail on UnitreeH1.walk; it cannot warm-start gaifo"):
         Trainer(tiny_run("gaifo", n_steps=800), tmp_path / "other", progress=False, init_from=tmp_path / "source")

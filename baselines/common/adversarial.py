@@ -16,8 +16,6 @@ plain dict (unknown keys raise); ``state_dict`` / ``load_state_dict`` hold every
 
 from __future__ import annotations
 
-import dataclasses
-import typing
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -29,6 +27,7 @@ from mushroom_rl.core import Agent, MDPInfo
 from mushroom_rl.policy import GaussianTorchPolicy
 from torch import nn
 
+from baselines.common.agent_config import AgentConfig
 from baselines.common.expert_data import ExpertData
 from baselines.common.fast_trpo import FastTRPO, dataset_to_arrays, default_num_threads
 from baselines.common.networks import MushroomMLP
@@ -37,10 +36,9 @@ from baselines.common.standardizer import RunningStandardizer
 
 
 @dataclass
-class AdversarialConfig:
+class AdversarialConfig(AgentConfig):
     """Hyperparameters shared by the adversarial imitation agents (defaults: the issue's starting point)."""
 
-    n_steps_per_fit: int = 1000  # environment steps between fits (for the training loop)
     # policy: Gaussian, MLP mean, state-independent std
     policy_hidden: tuple[int, ...] = (512, 256)
     policy_activation: str = "relu"
@@ -73,27 +71,10 @@ class AdversarialConfig:
     disc_entropy_coef: float = 1e-3  # Bernoulli-entropy bonus of the plain discriminator
     obs_clip: float = 10.0  # standardized inputs are clipped to [-obs_clip, obs_clip]
 
-    @classmethod
-    def from_dict(cls, values: dict[str, Any] | None) -> AdversarialConfig:
-        """Build from a plain dict (e.g. YAML). Unknown keys and values of the wrong type raise ``ValueError``.
-
-        Values are converted where that is unambiguous: lists to tuples, ints and numeric strings (YAML reads
-        ``5e-5`` as a string) to floats.
-        """
-        values = dict(values or {})
-        hints = typing.get_type_hints(cls)
-        unknown = sorted(set(values) - set(hints))
-        if unknown:
-            raise ValueError(f"unknown {cls.__name__} keys {unknown}; valid keys: {', '.join(sorted(hints))}")
-        config = cls(**{key: convert_config_value(cls.__name__, key, hints[key], value)
-                        for key, value in values.items()})
-        config.validate()
-        return config
-
     def validate(self) -> None:
         if self.learner not in ("fast", "mushroom"):
             raise ValueError(f"learner must be 'fast' or 'mushroom', got {self.learner!r}")
-        for name in ("n_steps_per_fit", "critic_batch_size", "critic_epochs", "n_epochs_cg", "n_epochs_line_search",
+        for name in ("critic_batch_size", "critic_epochs", "n_epochs_cg", "n_epochs_line_search",
                      "disc_batch_size", "disc_epochs", "train_disc_every"):
             if int(getattr(self, name)) < 1:
                 raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
@@ -101,44 +82,13 @@ class AdversarialConfig:
             if not float(getattr(self, name)) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
 
-    def to_dict(self) -> dict[str, Any]:
-        return {k: list(v) if isinstance(v, tuple) else v for k, v in dataclasses.asdict(self).items()}
-
-
-def convert_config_value(config_name: str, key: str, hint: Any, value: Any) -> Any:
-    """``value`` as the type ``hint`` of field ``key``, or a ``ValueError`` that names the key."""
-    def fail() -> ValueError:
-        return ValueError(f"{config_name}.{key} must be {hint.__name__ if isinstance(hint, type) else hint}, "
-                          f"got {value!r}")
-
-    if hint is float:
-        if isinstance(value, bool):
-            raise fail()
-        try:
-            return float(value)
-        except (TypeError, ValueError):
-            raise fail() from None
-    if hint is int or hint == (int | None):
-        if value is None and hint is not int:
-            return None
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or int(value) != value:
-            raise fail()
-        return int(value)
-    if hint is bool or hint is str:
-        if not isinstance(value, hint):
-            raise fail()
-        return value
-    if typing.get_origin(hint) is tuple:  # tuple[int, ...]: layer sizes
-        if not isinstance(value, (list, tuple)) or not all(isinstance(v, int) and v > 0 for v in value):
-            raise fail()
-        return tuple(value)
-    return value
 
 
 class AdversarialImitation(Agent):
     """Base class: see the module docstring. Subclasses set ``name`` and ``config_class``."""
 
     name: ClassVar[str] = ""
+    family: ClassVar[str] = "adversarial"  # configs/defaults.yaml: families.adversarial
     config_class: ClassVar[type[AdversarialConfig]] = AdversarialConfig
 
     def __init__(self, mdp_info: MDPInfo, expert: ExpertData, config: AdversarialConfig | dict | None = None,

@@ -78,6 +78,31 @@ class Evaluation:
         return {"R": summarize(self.returns), "J": summarize(self.discounted_returns), "L": summarize(self.lengths)}
 
 
+def evaluation_task(task: str, env_kwargs: dict | None = None) -> tuple[str, dict]:
+    """The task name and env settings an agent of ``task`` is evaluated on: the real task, whatever dataset it
+    trained on (``UnitreeH1.walk.perfect`` -> ``UnitreeH1.walk``, with the perfect data's settings such as PD
+    control), so that every agent of a task meets the same start states and the same references."""
+    kwargs = dict(env_kwargs or {})
+    parts = task.split(".")
+    if parts[-1] not in ("perfect", "preference", "real"):
+        return task, kwargs
+    base = ".".join(parts[:-1])
+    if parts[-1] != "real" and kwargs.get("dataset_path") is None:
+        from loco_mujoco.agent_datasets import agent_recipe, recipe_settings
+
+        if agent_recipe(task) is not None:
+            kwargs = {**recipe_settings(task), **{k: v for k, v in kwargs.items() if v is not None}}
+    return base, kwargs
+
+
+def evaluation_env(task: str, env_kwargs: dict | None = None, seed: int = SEED):
+    """The environment of the protocol for agents of ``task`` (see :func:`evaluation_task`)."""
+    from loco_mujoco import LocoEnv
+
+    base, kwargs = evaluation_task(task, env_kwargs)
+    return LocoEnv.make(base, **{"random_start": True, **kwargs}, seed=seed)
+
+
 def run_episodes(env, policy: Policy, n_episodes: int = EPISODES, seed: int = SEED, record: bool = False,
                  progress: bool = False, desc: str = "evaluating") -> Evaluation:
     """Run ``n_episodes`` episodes of ``policy`` on ``env`` re-seeded with ``seed``; ``record`` keeps states."""

@@ -18,7 +18,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from loco_mujoco.evaluation.protocol import EPISODES, SEED, Policy, run_episodes
+from loco_mujoco.evaluation.protocol import EPISODES, SEED, Policy, evaluation_task, run_episodes
 
 VERSION = 1  # bump when the reward, the protocol or a reference policy changes
 STAND_STILL_EPISODES = 5
@@ -110,7 +110,8 @@ def compute_references(task: str, env_kwargs: dict[str, Any] | None = None, epis
     """Measure the four references of ``task`` for ``LocoEnv.make(task, **env_kwargs)`` (no cache)."""
     from loco_mujoco import LocoEnv
 
-    kwargs = {"random_start": True, **(env_kwargs or {})}
+    task, kwargs = evaluation_task(task, env_kwargs)
+    kwargs = {"random_start": True, **kwargs}
     env = LocoEnv.make(task, **kwargs)
     horizon = int(env.info.horizon)
     per_step = float(env.dataset_task_rewards().mean())
@@ -132,7 +133,8 @@ def references(task: str, env_kwargs: dict[str, Any] | None = None, episodes: in
     """The cached references of ``task`` under ``env_kwargs``, computed on first use (or when ``refresh``)."""
     from loco_mujoco import LocoEnv
 
-    kwargs = {"random_start": True, **(env_kwargs or {})}
+    task, kwargs = evaluation_task(task, env_kwargs)
+    kwargs = {"random_start": True, **kwargs}
     probe = LocoEnv.make(task, **kwargs)  # cheap next to the rollouts; validates the task and settings
     key = {"version": VERSION, "task": task, "settings": _settings(kwargs), "dataset": dataset_digest(probe),
            "episodes": episodes, "seed": seed}
@@ -141,7 +143,7 @@ def references(task: str, env_kwargs: dict[str, Any] | None = None, episodes: in
     if path.exists() and not refresh:
         data = json.loads(path.read_text())
         return References(**data)
-    refs = compute_references(task, env_kwargs, episodes, seed, progress)
+    refs = compute_references(task, kwargs, episodes, seed, progress)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(".tmp")
     tmp.write_text(json.dumps(asdict(refs), indent=1))
