@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
-import inspect
 import typing
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,6 +27,7 @@ from typing import Any
 import yaml
 
 from baselines.common.agent_config import convert_config_value
+from loco_mujoco import strict_yaml
 
 CONFIG_DIR = Path(__file__).resolve().parent.parent / "configs"
 SECTIONS = ("env", "train", "agent")
@@ -156,7 +156,7 @@ def load_run_config(task: str, algorithm: str, seed: int = 0, config_dir: str | 
     train = _dataclass_from_dict(TrainConfig, merged["train"], "train", task_file)
     train.validate()
     env_class = environment_class(parsed.env)
-    _check_env_keys(env_class, merged["env"], task_file)
+    _check_env_keys(env_class, merged["env"], task_file, provenance)
     for section, values in (("agent", agent.to_dict()), ("train", dataclasses.asdict(train))):
         for key in values:
             provenance.setdefault(f"{section}.{key}", f"{type(agent if section == 'agent' else train).__name__} "
@@ -196,7 +196,7 @@ def parse_overrides(items: list[str]) -> dict[str, dict[str, Any]]:
         if section not in SECTIONS:
             raise ConfigError(f"override {item!r}: unknown section {section!r}; valid: {', '.join(SECTIONS)}")
         try:
-            overrides[section][key] = yaml.safe_load(text)
+            overrides[section][key] = strict_yaml.load(text)
         except yaml.YAMLError as err:
             raise ConfigError(f"override {item!r}: the value is not valid YAML ({err})") from None
     return overrides
@@ -209,7 +209,9 @@ def read_yaml(path: Path, allowed: tuple[str, ...]) -> dict[str, Any]:
     except FileNotFoundError:
         raise ConfigError(f"config file {path} does not exist") from None
     try:
-        data = yaml.safe_load(text)
+        data = strict_yaml.load(text)
+    except strict_yaml.DuplicateKeyError as err:
+        raise ConfigError(f"{path}: {err}") from None
     except yaml.YAMLError as err:
         raise ConfigError(f"{path} is not valid YAML: {err}") from None
     if data is None:
@@ -240,27 +242,28 @@ def _dataclass_from_dict(cls: type, values: dict[str, Any], section: str, source
 
 
 def env_parameters(env_class: type) -> set[str]:
-    """Keyword arguments a config may give ``env_class``: the named parameters of each ``__init__`` from the
-    class up to ``LocoEnv`` (whose ``**viewer_params`` go to rendering, not to the task)."""
-    from loco_mujoco.core.loco_env import LocoEnv
+    """Keyword arguments a config may give ``env_class`` (its constructors' named parameters, less the task name
+    and seed, which come from the launcher)."""
+    from loco_mujoco.core.parameters import env_parameter_names
 
-    names: set[str] = set()
-    for klass in env_class.__mro__:
-        init = klass.__dict__.get("__init__")
-        if init is not None:
-            params = inspect.signature(init).parameters.values()
-            names |= {p.name for p in params if p.kind not in (p.VAR_KEYWORD, p.VAR_POSITIONAL)}
-        if klass is LocoEnv:
-            break
-    return names - _ENV_RESERVED
+    return env_parameter_names(env_class) - _ENV_RESERVED
 
 
-def _check_env_keys(env_class: type, values: dict[str, Any], source: Path) -> None:
+def _check_env_keys(env_class: type, values: dict[str, Any], source: Path, provenance: dict[str, str]) -> None:
+    """Names against ``env_class``'s parameters, values against their declared types and ranges."""
+    from loco_mujoco.core.parameters import ENV_PARAMETERS, ParameterError
+
     valid = env_parameters(env_class)
     unknown = sorted(set(values) - valid)
     if unknown:
         raise ConfigError(f"{source}: unknown env keys {unknown} for {env_class.__name__}"
                           f"{_suggest(unknown[0], valid)}; valid: {', '.join(sorted(valid))}")
+    for key, value in values.items():
+        if key in ENV_PARAMETERS:
+            try:
+                ENV_PARAMETERS[key].check(f"env.{key}", value)
+            except ParameterError as err:
+                raise ConfigError(f"{provenance.get(f'env.{key}', source)}: {err}") from None
 
 
 def _suggest(key: str, valid: Any) -> str:

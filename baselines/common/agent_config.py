@@ -15,8 +15,8 @@ class AgentConfig:
     def from_dict(cls, values: dict[str, Any] | None) -> Any:
         """Build from a plain dict (e.g. YAML). Unknown keys and values of the wrong type raise ``ValueError``.
 
-        Values are converted where that is unambiguous: lists to tuples, ints and numeric strings (YAML reads
-        ``5e-5`` as a string) to floats.
+        Values are converted where that is unambiguous: lists to tuples, ints to floats. Strings are never read
+        as numbers or booleans (write ``5.0e-5``: YAML 1.1 reads ``5e-5`` as a string).
         """
         values = dict(values or {})
         hints = typing.get_type_hints(cls)
@@ -41,13 +41,10 @@ def convert_config_value(config_name: str, key: str, hint: Any, value: Any) -> A
         return ValueError(f"{config_name}.{key} must be {hint.__name__ if isinstance(hint, type) else hint}, "
                           f"got {value!r}")
 
-    if hint is float:
-        if isinstance(value, bool):
+    if hint is float:  # ints widen to float; strings never become numbers ("5e-5" is a string in YAML 1.1)
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise fail()
-        try:
-            return float(value)
-        except (TypeError, ValueError):
-            raise fail() from None
+        return float(value)
     if hint is int or hint == (int | None):
         if value is None and hint is not int:
             return None

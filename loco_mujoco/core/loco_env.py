@@ -23,6 +23,7 @@ from mushroom_rl.utils.mujoco import ObservationType
 from mushroom_rl.utils.spaces import Box
 
 from loco_mujoco._compat import MuJoCo
+from loco_mujoco.core import parameters
 from loco_mujoco.core import rewards as rw
 from loco_mujoco.core.task_names import DATASET_TYPES, DEFAULT_DATASET_TYPE, parse_task_name, register_environment
 from loco_mujoco.core.trajectory_api import TrajectoryMixin
@@ -140,6 +141,15 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
             weight_mass: carry tasks only: the load's mass (kg) instead of one drawn from ``LOAD_MASSES``.
             use_foot_forces: append each foot's ground-reaction force (world frame, N) to the observation.
         """
+        # Arguments first, before any work: misspelt names land in viewer_params, so those are checked too.
+        parameters.check_unknown(viewer_params, parameters.env_parameter_names(type(self))
+                                 | set(parameters.VIEWER_PARAMETERS), f"keyword arguments for {type(self).__name__}")
+        parameters.check_values(dict(
+            task=task, mode=mode, dataset_type=dataset_type, control=control, disable_arms=disable_arms,
+            reward_type=reward_type, reward_params=reward_params, timestep=timestep, n_substeps=n_substeps,
+            horizon=horizon, gamma=gamma, seed=seed, random_start=random_start, init_step_no=init_step_no,
+            dataset_variant=dataset_variant, dataset_path=dataset_path, weight_mass=weight_mass,
+            domain_randomization_config=domain_randomization_config, use_foot_forces=use_foot_forces))
         task = task if task is not None else next(iter(self.TASKS))
         self._validate_choice("task", task, tuple(self.TASKS))
         if self.MODES:

@@ -32,6 +32,7 @@ import mujoco
 import numpy as np
 import yaml
 
+from loco_mujoco import strict_yaml
 from loco_mujoco.models.spec_edit import dof_width
 from loco_mujoco.rotations import mat_to_quat, quat_to_mat
 
@@ -140,8 +141,10 @@ def load_config(source: str | Path | Mapping, env_cls: type) -> dict:
         raise RandomizationConfigError(f"randomization config {path} not found; give a YAML file path, "
                                        "a mapping, or 'default' for the shipped config")
     try:
-        config = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as err:
+        config = strict_yaml.load(path.read_text())
+    except strict_yaml.DuplicateKeyError as err:
+        raise RandomizationConfigError(f"{path}: {err}") from None
+    except (yaml.YAMLError, UnicodeDecodeError) as err:
         raise RandomizationConfigError(f"{path}: not valid YAML: {err}") from err
     if not isinstance(config, Mapping):
         raise RandomizationConfigError(f"{path}: the top level must be a mapping of sections "

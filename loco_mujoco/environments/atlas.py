@@ -31,7 +31,10 @@ class Atlas(LocoEnv):
 
     def __init__(self, *args: Any, disable_back_joint: bool = True, **kwargs: Any):
         """``disable_back_joint``: weld the three back joints at the home pose (default, as upstream)."""
-        self.disable_back_joint = bool(disable_back_joint)
+        from loco_mujoco.core.parameters import ENV_PARAMETERS
+
+        ENV_PARAMETERS["disable_back_joint"].check("disable_back_joint", disable_back_joint)
+        self.disable_back_joint = disable_back_joint
         super().__init__(*args, **kwargs)
 
     def load_spec(self) -> mujoco.MjSpec:
