@@ -154,7 +154,10 @@ def load_run_config(task: str, algorithm: str, seed: int = 0, config_dir: str | 
     except ValueError as err:
         raise ConfigError(f"agent section ({task_file} on {defaults_file}): {err}") from None
     train = _dataclass_from_dict(TrainConfig, merged["train"], "train", task_file)
-    train.validate()
+    try:
+        train.validate()
+    except ConfigError as err:
+        raise ConfigError(f"train section ({shown_task} on {shown_defaults}): {err}") from None
     env_class = environment_class(parsed.env)
     _check_env_keys(env_class, merged["env"], task_file, provenance)
     for section, values in (("agent", agent.to_dict()), ("train", dataclasses.asdict(train))):
@@ -208,6 +211,8 @@ def read_yaml(path: Path, allowed: tuple[str, ...]) -> dict[str, Any]:
         text = Path(path).read_text()
     except FileNotFoundError:
         raise ConfigError(f"config file {path} does not exist") from None
+    except (UnicodeDecodeError, OSError) as err:
+        raise ConfigError(f"config file {path} cannot be read as text ({type(err).__name__}: {err})") from None
     try:
         data = strict_yaml.load(text)
     except strict_yaml.DuplicateKeyError as err:

@@ -156,16 +156,18 @@ class Trainer:
         elif self.checkpoint_path.exists():
             raise FileExistsError(f"{self.checkpoint_path} exists: pass --resume to continue that run, "
                                   f"or choose another --out")
+        else:
+            _check_fresh_run_dir(self.out_dir)
         self.run = run
         self.progress = progress
         # Normalised score (0 = random, 100 = expert) of every epoch's evaluation; cached per task and settings.
         self.references = references(run.task, run.env)
-        self.out_dir.mkdir(parents=True, exist_ok=True)
         # The agent and env own seeded generators; the global ones are seeded too, for any code that uses them.
         torch.manual_seed(run.seed)
         np.random.seed(run.seed)
         self.env, self.agent = build(run)
         self.eval_env = evaluation_env(run.task, run.env, seed=run.train.eval_seed)  # the real task's starts
+        self.out_dir.mkdir(parents=True, exist_ok=True)  # only now: a start that fails leaves nothing behind
         self.epoch, self.steps, self.wall_s = 0, 0, 0.0
         if state is not None:
             self._restore(state)
@@ -277,6 +279,31 @@ def _warm_start_record(state: dict[str, Any], path: str | Path, run: RunConfig) 
     path = Path(path) / CHECKPOINT if Path(path).is_dir() else Path(path)
     return {"checkpoint": str(path.resolve()), "epoch": int(state["epoch"]), "steps": int(state["steps"]),
             "run_config": source.to_dict()}
+
+
+RUN_FILES = (CHECKPOINT, "progress.csv", "config.yaml", INIT_FROM_PROGRESS, "tensorboard")
+
+
+def _check_fresh_run_dir(out_dir: Path) -> None:
+    """A new run's folder holds no other run's files, and it can be written; raise before any work if not."""
+    found = [name for name in RUN_FILES if (out_dir / name).exists()]
+    if found:
+        raise FileExistsError(f"{out_dir} holds another run's files ({', '.join(found)}) but no checkpoint to "
+                              "resume; a run folder belongs to one run: choose another --out")
+    writable_dir(out_dir)
+
+
+def writable_dir(path: Path) -> None:
+    """Raise ``PermissionError`` naming ``path`` if it (or, when missing, its nearest existing parent) cannot be
+    written, or ``NotADirectoryError`` if it is a file."""
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise NotADirectoryError(f"{path} is a file, not a folder")
+    probe = path
+    while not probe.exists():
+        probe = probe.parent
+    if not os.access(probe, os.W_OK | os.X_OK):
+        raise PermissionError(f"cannot write to {path}: {probe} is not writable")
 
 
 def _numpy_global_state() -> dict[str, Any]:

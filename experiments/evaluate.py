@@ -108,8 +108,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--metrics", action="store_true", help="trajectory, gait and distribution metrics")
     parser.add_argument("--record", nargs="?", const="", default=None,
                         help="write an H.264 mp4 of the first episode beside the reference motion "
-                             "(default: <run dir>/<run dir name>_episode0.mp4)")
+                             "(default: <run dir>/<task>_<algo>_seed<N>_episode0.mp4)")
     parser.add_argument("--json", help="also write the results to this JSON file")
+    parser.add_argument("--force", action="store_true", help="replace an existing --json file or video")
     parser.add_argument("--references", nargs="*", metavar="TASK",
                         help="list the reference returns of these tasks (default: every task with data)")
     parser.add_argument("--refresh", action="store_true", help="recompute cached references")
@@ -125,7 +126,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("give a checkpoint to evaluate, or --references")
 
     from baselines.common.evaluation import evaluate_agent
-    from baselines.training import build, load_checkpoint, run_config_from_checkpoint
+    from baselines.training import build, load_checkpoint, run_config_from_checkpoint, writable_dir
 
     try:
         state = load_checkpoint(args.checkpoint)
@@ -133,6 +134,19 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {err}", file=sys.stderr)
         return 2
     run = run_config_from_checkpoint(state)
+    run_dir = Path(args.checkpoint) if Path(args.checkpoint).is_dir() else Path(args.checkpoint).parent
+    video = None
+    if args.record is not None:
+        default = run_dir / f"{run.task}_{run.algorithm}_seed{run.seed}_episode0.mp4"
+        video = Path(args.record) if args.record else default
+    try:  # every output checked before the work: nothing is overwritten unasked, nothing fails at the end
+        for out in [p for p in (Path(args.json) if args.json else None, video) if p is not None]:
+            if out.exists() and not args.force:
+                raise FileExistsError(f"{out} exists; pass --force to replace it")
+            writable_dir(out.parent)
+    except OSError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
     _, agent = build(run)
     agent.load_state_dict(state["agent"])
     env = protocol.evaluation_env(run.task, run.env, seed=args.seed)  # the real task, whatever data it trained on
@@ -161,9 +175,8 @@ def main(argv: list[str] | None = None) -> int:
 
         results["metrics"] = imitation_metrics(env, evaluations["deterministic"])
         print_metrics(results["metrics"])
-    if args.record is not None:
-        run_dir = Path(args.checkpoint) if Path(args.checkpoint).is_dir() else Path(args.checkpoint).parent
-        path = Path(args.record) if args.record else run_dir / f"{run_dir.resolve().name}_episode0.mp4"
+    if video is not None:
+        path = video
         try:
             from loco_mujoco.evaluation.imitation import reference_qpos
             from loco_mujoco.evaluation.video import render_with_reference

@@ -50,6 +50,11 @@ def _stop_on_sigterm(signum: int, frame: object) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
+    for name in ("steps", "epoch_steps", "threads"):
+        value = getattr(args, name)
+        if value is not None and value < 1:
+            print(f"error: --{name.replace('_', '-')} must be at least 1, got {value}", file=sys.stderr)
+            return 2
     if args.resume and (args.set or args.epoch_steps is not None):
         print("error: --resume continues with the checkpoint's own configuration (only --steps may extend it); "
               "to change settings, start a new run from it with --init-from CHECKPOINT --set ...", file=sys.stderr)
@@ -66,6 +71,12 @@ def main(argv: list[str] | None = None) -> int:
     except (ConfigError, ValueError) as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
+    per_fit = run.train.n_steps_per_fit
+    if run.train.n_steps % per_fit:  # every epoch ends on a fit: round up, and say so
+        rounded = -(-run.train.n_steps // per_fit) * per_fit
+        print(f"note: {run.train.n_steps:,} steps is not a multiple of train.n_steps_per_fit ({per_fit:,}); "
+              f"training {rounded:,} steps", file=sys.stderr)
+        run.train.n_steps = rounded
     if args.print_config:
         print(format_config(run))
         return 0
@@ -73,7 +84,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         trainer = Trainer(run, out, resume=args.resume, progress=not args.quiet, init_from=args.init_from,
                           n_threads=args.threads)
-    except (FileExistsError, FileNotFoundError, ValueError) as err:
+    except (OSError, ValueError) as err:  # our errors name the file or value; nothing was created
         print(f"error: {err}", file=sys.stderr)
         return 2
     signal.signal(signal.SIGTERM, _stop_on_sigterm)
@@ -89,7 +100,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"epoch {trainer.epoch}, {trainer.steps:,} steps: R={result['R']:.2f} J={result['J']:.2f} "
               f"L={result['L']:.1f} task_reward={result['task_reward']:.4f} (deterministic, "
               f"{run.train.n_eval_episodes} episodes)")
-    print(f"checkpoint: {trainer.checkpoint_path}")
+    if trainer.checkpoint_path.exists():
+        print(f"checkpoint: {trainer.checkpoint_path}")
+    else:
+        print(f"no checkpoint written: no epoch completed in {out}", file=sys.stderr)
     return 0
 
 

@@ -1,6 +1,10 @@
-"""Turn training runs into the committed results: ``results/<task>_<algo>.csv`` and ``.png``.
+"""Plot training runs: ``<task>_<algo>[_seed<N>].csv``, ``.png`` and ``_references.json`` per run.
 
-    python experiments/plot_results.py RUN_DIR [RUN_DIR ...] [--out results]
+    python experiments/plot_results.py RUN_DIR [RUN_DIR ...]                 # beside each run
+    python experiments/plot_results.py results/runs/* --out results --force   # regenerate the committed ones
+
+By default the files go into each run's own folder. A file that exists and was not written by this same call
+is never replaced unless ``--force`` is given (the committed results in ``results/`` stay as they are).
 
 Each run directory's ``progress.csv`` (one row per epoch: deterministic evaluation over 10 episodes) is
 copied, and the episode length L and the undiscounted task return R are plotted against environment steps,
@@ -47,22 +51,41 @@ def config_changes(before: dict, after: dict) -> dict[str, tuple]:
     return changes
 
 
-def plot_run(run_dir: Path, out_dir: Path) -> Path:
+def output_stem(run) -> str:
+    """``<task>_<algo>`` (``_seed<N>`` for seeds other than 0, ``_from<N>M`` for warm starts)."""
+    stem = f"{run.task}_{run.algorithm}" + (f"_seed{run.seed}" if run.seed != 0 else "")
+    if run.init_from is not None:
+        stem += f"_from{run.init_from['steps'] / 1e6:g}M"
+    return stem
+
+
+def plot_run(run_dir: Path, out_dir: Path | None = None, force: bool = False,
+             written: set[Path] | None = None) -> Path:
+    """Write ``run_dir``'s csv, png and references into ``out_dir`` (default: ``run_dir``); an existing file not in
+    ``written`` (the files this call already wrote) raises ``FileExistsError`` unless ``force``."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    run_dir = Path(run_dir)
+    out_dir = Path(out_dir) if out_dir is not None else run_dir
+    written = set() if written is None else written
     state = load_checkpoint(run_dir)
     run = run_config_from_checkpoint(state)
-    stem = f"{run.task}_{run.algorithm}"
+    stem = output_stem(run)
+    targets = [out_dir / f"{stem}{suffix}" for suffix in (".csv", ".png", "_references.json")]
+    existing = [str(t) for t in targets if t.exists() and t.resolve() not in written]
+    if existing and not force:
+        raise FileExistsError(f"would replace {', '.join(existing)}; pass --force to regenerate them, or --out "
+                              "another folder")
+    written.update(t.resolve() for t in targets)
     source = None
-    if run.init_from is not None:  # warm-started: its own name, and the source's curve drawn before it
-        stem += f"_from{run.init_from['steps'] / 1e6:g}M"
-        if (run_dir / INIT_FROM_PROGRESS).exists():
-            source = read_progress(run_dir / INIT_FROM_PROGRESS)
+    if run.init_from is not None and (run_dir / INIT_FROM_PROGRESS).exists():  # the source's curve drawn first
+        source = read_progress(run_dir / INIT_FROM_PROGRESS)
     out_dir.mkdir(parents=True, exist_ok=True)
-    shutil.copy(run_dir / "progress.csv", out_dir / f"{stem}.csv")
+    if (out_dir / f"{stem}.csv").resolve() != (run_dir / "progress.csv").resolve():
+        shutil.copy(run_dir / "progress.csv", out_dir / f"{stem}.csv")
     progress = read_progress(run_dir / "progress.csv")
     refs = references(run.task, run.env)  # random, stand-still and expert returns under the evaluation protocol
     (out_dir / f"{stem}_references.json").write_text(json.dumps(refs.__dict__, indent=2))
@@ -103,10 +126,16 @@ def plot_run(run_dir: Path, out_dir: Path) -> Path:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("runs", nargs="+", type=Path, help="run directories")
-    parser.add_argument("--out", type=Path, default=Path("results"))
+    parser.add_argument("--out", type=Path, default=None, help="output folder (default: each run's own folder)")
+    parser.add_argument("--force", action="store_true", help="replace existing files (e.g. the committed results)")
     args = parser.parse_args(argv)
+    written: set[Path] = set()
     for run_dir in args.runs:
-        print(plot_run(run_dir, args.out))
+        try:
+            print(plot_run(run_dir, args.out, args.force, written))
+        except (OSError, ValueError) as err:
+            print(f"error: {err}", file=sys.stderr)
+            return 2
     return 0
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 import typing
 from typing import Any
 
@@ -42,13 +43,14 @@ def convert_config_value(config_name: str, key: str, hint: Any, value: Any) -> A
                           f"got {value!r}")
 
     if hint is float:  # ints widen to float; strings never become numbers ("5e-5" is a string in YAML 1.1)
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise fail()
         return float(value)
     if hint is int or hint == (int | None):
         if value is None and hint is not int:
             return None
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or int(value) != value:
+        integral = isinstance(value, int) or (isinstance(value, float) and value.is_integer())
+        if isinstance(value, bool) or not integral:
             raise fail()
         return int(value)
     if hint is bool or hint is str:

@@ -446,12 +446,15 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
     def _target_velocity_from_dataset(self) -> float:
         """The dataset's mean forward speed; the task's nominal speed, with a warning, if no dataset can be had."""
         from loco_mujoco.datasets.registry import DatasetUnavailableError
+        from loco_mujoco.datasets.sources.fetch import CacheDirError
 
         try:
             speed = self.dataset_target_velocity()
             self._target_from_dataset = True
             return speed
         except (DatasetUnavailableError, OSError) as err:  # no recipe, or sources neither local nor downloadable
+            if self.dataset_path is not None or isinstance(err, CacheDirError):
+                raise  # the user's own file, or a cache variable pointing nowhere: never papered over
             warnings.warn(f"{type(self).__name__}.{self.task_name}: no dataset to take the target speed from "
                           f"({err}); using the nominal {self.task.target_velocity} m/s", stacklevel=3)
             return self.task.target_velocity

@@ -25,6 +25,10 @@ class TrajectoryMixin:
         self.init_step_no = init_step_no
         self.dataset_variant = dataset_variant
         self.dataset_path = Path(dataset_path) if dataset_path is not None else None
+        if self.dataset_path is not None and not self.dataset_path.is_file():
+            raise FileNotFoundError(f"dataset_path {self.dataset_path} "
+                                    f"{'is a folder' if self.dataset_path.is_dir() else 'does not exist'}; "
+                                    "give a dataset .npz (ours, or the original LocoMuJoCo format)")
         self._dataset: TrajectoryDataset | None = None
         self._dataset_cols: tuple[np.ndarray, np.ndarray] | None = None
         self._goals_cache: np.ndarray | None = None

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import zipfile
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from loco_mujoco.datasets.motion import MotionFormatError
 from loco_mujoco.datasets.resample import resample_angles, resample_quat
 from loco_mujoco.datasets.retarget import velocities
 from loco_mujoco.datasets.sources.loco_npz import OLD_ROOT_OFFSET, load_loco_npz
@@ -19,8 +21,15 @@ if TYPE_CHECKING:
 def load_any_dataset(env_cls: type[LocoEnv], path: str | Path, frequency: float = 100.0) -> TrajectoryDataset:
     """A dataset file of ours, or an original LocoMuJoCo ``.npz`` converted onto ``env_cls``'s full model."""
     path = Path(path)
-    with np.load(path, allow_pickle=False) as data:
-        ours = "format" in data.files and str(data["format"]) == FORMAT
+    if not path.is_file():
+        raise FileNotFoundError(f"dataset file {path} {'is a folder' if path.is_dir() else 'does not exist'}; "
+                                "give a dataset .npz (ours, or the original LocoMuJoCo format)")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            ours = "format" in data.files and str(data["format"]) == FORMAT
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile) as err:  # not an .npz, pickled, truncated
+        raise MotionFormatError(path, f"not a dataset file: expected an .npz of ours or of the original "
+                                      f"LocoMuJoCo ({type(err).__name__}: {str(err)[:120]})") from None
     return TrajectoryDataset.load(path) if ours else convert_loco_npz(env_cls, path, frequency)
 
 

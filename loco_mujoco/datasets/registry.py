@@ -185,6 +185,7 @@ def load_dataset(env_cls: type[LocoEnv], task: str, variant: str | None = None, 
         return TrajectoryDataset.load(path)
     dataset = build_dataset(env_cls, task, variant, progress=progress, mode=mode)
     dataset.save(path)
+    dataset.source_file = path
     return dataset
 
 

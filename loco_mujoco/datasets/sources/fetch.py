@@ -331,9 +331,26 @@ def default_sources_root() -> Path | None:
     return shared if shared.is_dir() else None
 
 
+class CacheDirError(OSError):
+    """The cache folder cannot be created or written; the message names it and the variable that chose it."""
+
+
 def cache_dir() -> Path:
-    """Root of the download cache: ``$LOCO_MUJOCO_CACHE`` or ``~/.cache/loco_mujoco``."""
-    return Path(os.environ.get("LOCO_MUJOCO_CACHE") or Path.home() / ".cache" / "loco_mujoco").expanduser()
+    """Root of the download cache: ``$LOCO_MUJOCO_CACHE`` or ``~/.cache/loco_mujoco``, created if missing.
+
+    A folder that cannot be created or written raises :class:`CacheDirError` naming the variable."""
+    value = os.environ.get("LOCO_MUJOCO_CACHE")
+    path = Path(value or Path.home() / ".cache" / "loco_mujoco").expanduser()
+    where = f"LOCO_MUJOCO_CACHE={value!r}" if value else f"the default cache folder {path}"
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise CacheDirError(f"{where} is not usable: cannot create {path} ({err.strerror or err}); "
+                            "point LOCO_MUJOCO_CACHE at a writable folder") from None
+    if not os.access(path, os.W_OK | os.X_OK):
+        raise CacheDirError(f"{where} is not usable: {path} is not writable; point LOCO_MUJOCO_CACHE at a "
+                            "writable folder")
+    return path
 
 
 def sha256_of(path: str | Path) -> str:
