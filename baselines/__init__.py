@@ -1,5 +1,5 @@
-"""Imitation-learning baselines for loco_mujoco: GAIL, VAIL, GAIfO (adversarial, on Mushroom-RL's ``Core``) and
-behaviour cloning (offline).
+"""Imitation-learning baselines for loco_mujoco: GAIL, VAIL, GAIfO (adversarial, on Mushroom-RL's ``Core``),
+IQ-Learn, LS-IQ, SQIL (off-policy actor-critic, on ``Core``) and behaviour cloning (offline).
 
 Each algorithm lives in one module and is a Mushroom-RL ``Agent``; ``make_agent`` builds one by name from a
 plain config dict (what a launcher reads from YAML)::
@@ -24,13 +24,16 @@ from loco_mujoco import _compat  # noqa: F401  (patches mushroom-rl for our torc
 from baselines.bc.bc import BC, BCConfig
 from baselines.gaifo.gaifo import GAIfO, GAIfOConfig
 from baselines.gail.gail import GAIL, GAILConfig
+from baselines.iq_learn.iq_learn import IQLearn, IQLearnConfig
+from baselines.lsiq.lsiq import LSIQ, LSIQConfig
+from baselines.sqil.sqil import SQIL, SQILConfig
 from baselines.vail.vail import VAIL, VAILConfig
 
-ALGORITHMS = {"gail": GAIL, "vail": VAIL, "gaifo": GAIfO, "bc": BC}
+ALGORITHMS = {"gail": GAIL, "vail": VAIL, "gaifo": GAIfO, "bc": BC, "iq_learn": IQLearn, "lsiq": LSIQ, "sqil": SQIL}
 
 
 def make_agent(algorithm: str, env: Any, config: dict[str, Any] | None = None, seed: int = 0, **kwargs: Any):
-    """Build the agent ``algorithm`` (``gail``, ``vail``, ``gaifo``, ``bc``) for ``env``; unknown config keys raise."""
+    """Build the agent ``algorithm`` (a key of ``ALGORITHMS``) for ``env``; unknown config keys raise."""
     try:
         cls = ALGORITHMS[algorithm.lower()]
     except KeyError:
@@ -38,5 +41,5 @@ def make_agent(algorithm: str, env: Any, config: dict[str, Any] | None = None, s
     return cls.from_env(env, config=config, seed=seed, **kwargs)
 
 
-__all__ = ["ALGORITHMS", "BC", "BCConfig", "GAIL", "GAILConfig", "GAIfO", "GAIfOConfig", "VAIL", "VAILConfig",
-           "make_agent"]
+__all__ = ["ALGORITHMS", "BC", "BCConfig", "GAIL", "GAILConfig", "GAIfO", "GAIfOConfig", "IQLearn", "IQLearnConfig",
+           "LSIQ", "LSIQConfig", "SQIL", "SQILConfig", "VAIL", "VAILConfig", "make_agent"]

@@ -19,6 +19,7 @@ import dataclasses
 import os
 import shutil
 import time
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -38,6 +39,7 @@ from loco_mujoco.evaluation.references import references
 CHECKPOINT = "checkpoint.pt"
 CHECKPOINT_FORMAT = 1
 INIT_FROM_PROGRESS = "init_from_progress.csv"  # a warm-started run's copy of its source's log
+REPLAY = "replay.npz"  # an off-policy run's replay buffer, beside its checkpoint (large: never committed)
 
 
 def make_env(run: RunConfig, seed: int) -> Any:
@@ -70,7 +72,7 @@ def make_expert(run: RunConfig, env: Any) -> ExpertData:
         dataset = {**dataset, "actions": inverse_dynamics_actions(env)}
     from baselines import ALGORITHMS
 
-    if ALGORITHMS[run.algorithm].family == "offline":  # a policy sees everything: clone on the full observation
+    if ALGORITHMS[run.algorithm].family != "adversarial":  # no discriminator: policy and critic see everything
         return ExpertData(dataset, np.ones(env.info.observation_space.shape[0], dtype=bool))
     return ExpertData(dataset, kinematic_obs_mask(env))
 
@@ -166,6 +168,8 @@ class Trainer:
         torch.manual_seed(run.seed)
         np.random.seed(run.seed)
         self.env, self.agent = build(run)
+        if hasattr(self.agent, "set_budget"):  # off-policy: the warm-up scales to the run's length
+            self.agent.set_budget(run.train.n_steps)
         self.eval_env = evaluation_env(run.task, run.env, seed=run.train.eval_seed)  # the real task's starts
         self.out_dir.mkdir(parents=True, exist_ok=True)  # only now: a start that fails leaves nothing behind
         self.epoch, self.steps, self.wall_s = 0, 0, 0.0
@@ -243,9 +247,23 @@ class Trainer:
                 "torch_rng": torch.get_rng_state(), "numpy_rng": _numpy_global_state()}
 
     def save(self) -> None:
+        if hasattr(self.agent, "save_buffer"):  # off-policy: the replay buffer beside the checkpoint, never in git
+            self.agent.save_buffer(self.out_dir / REPLAY)
         tmp = self.checkpoint_path.with_suffix(".tmp")
         torch.save(self.state_dict(), tmp)
         os.replace(tmp, self.checkpoint_path)
+
+    def _restore_buffer(self) -> None:
+        """The replay buffer saved with the checkpoint; without it (only the committed small state survived) the run
+        goes on as a documented warm start, and says so."""
+        path = self.out_dir / REPLAY
+        if not path.exists():
+            _replay_notice(self, f"no {REPLAY} beside the checkpoint")
+            return
+        try:
+            self.agent.load_buffer(path)
+        except ValueError as err:  # killed between writing the buffer and the checkpoint
+            _replay_notice(self, str(err))
 
     def _warm_start(self, state: dict[str, Any]) -> None:
         try:
@@ -261,10 +279,18 @@ class Trainer:
 
     def _restore(self, state: dict[str, Any]) -> None:
         self.agent.load_state_dict(state["agent"])
+        if hasattr(self.agent, "load_buffer"):
+            self._restore_buffer()
         self.env._rng.bit_generator.state = state["env_rng"]
         torch.set_rng_state(state["torch_rng"])
         _set_numpy_global_state(state["numpy_rng"])
         self.epoch, self.steps, self.wall_s = int(state["epoch"]), int(state["steps"]), float(state["wall_s"])
+
+
+def _replay_notice(trainer: Trainer, reason: str) -> None:
+    warnings.warn(f"{trainer.out_dir}: {reason}; --resume continues as a warm start: networks, optimisers and "
+                  f"temperature restored, the replay buffer refilled for {getattr(trainer.agent, 'warmup', 0):,} "
+                  "transitions before updates resume (not bit-identical to an uninterrupted run)", stacklevel=3)
 
 
 def _warm_start_record(state: dict[str, Any], path: str | Path, run: RunConfig) -> dict[str, Any]:
@@ -281,7 +307,7 @@ def _warm_start_record(state: dict[str, Any], path: str | Path, run: RunConfig) 
             "run_config": source.to_dict()}
 
 
-RUN_FILES = (CHECKPOINT, "progress.csv", "config.yaml", INIT_FROM_PROGRESS, "tensorboard")
+RUN_FILES = (CHECKPOINT, "progress.csv", "config.yaml", INIT_FROM_PROGRESS, "tensorboard", REPLAY)
 
 
 def _check_fresh_run_dir(out_dir: Path) -> None:

@@ -1,4 +1,7 @@
-"""Training-loop throughput: VAIL on UnitreeH1.walk with our FastTRPO against Mushroom-RL's unmodified TRPO.
+"""Training-loop throughput: on-policy (VAIL with our FastTRPO against Mushroom-RL's unmodified TRPO) and
+off-policy (IQ-Learn / LS-IQ / SQIL on our actor-critic loop against Mushroom-RL's own SAC).
+
+**On-policy** (``--section onpolicy``): VAIL on UnitreeH1.walk.
 
 Both learners run inside the same VAIL agent (same discriminator, expert data, standardizers, networks and
 hyperparameters: policy / critic MLPs [512, 256], 1000 env steps per fit, 25 CG iterations, max KL 5e-3,
@@ -16,8 +19,20 @@ under cProfile, broken down by component (cProfile slows Python-heavy parts, so 
 absolute times there; the fast learner's critic runs in a background thread, which cProfile does not see:
 its time is measured with a timer and reported as overlapped with the rollout).
 
-    .venv/bin/python bench/training_throughput.py [--steps 20000] [--warmup 3000] [--repeats 3]
-                                                  [--variants fast:2 fast:1 mushroom:2] [--profile]
+**Off-policy** (``--section offpolicy``): on UnitreeH1.walk.perfect (it has expert actions), our
+baselines.common.offpolicy loop (sqil, iq_learn, lsiq) against ``mushroom_rl.algorithms.actor_critic.SAC``
+at identical settings: actor and twin critics [256, 256] (Mushroom's SAC has separate mean and log-std
+networks, as it is written), 512 transitions per update (ours: 256 agent + 256 expert; SAC: 512 from its
+replay memory), lr 3e-4 / 3e-5, tau 0.005, one update per environment step (``n_steps_per_fit=1``), all in
+one process on one torch thread (``--off-threads``). SQIL is SAC's computation with a constant reward, so
+sqil / sac is the like-for-like ratio; IQ-Learn and LS-IQ also regress the value of the policy's actions
+(one more critic pass with gradients). Per run: a fresh agent (seed 0), ``--off-warmup`` steps filling the
+replay memory without updates (timed: collection alone), then ``--off-steps`` steps with one update each
+(timed: env steps/s = updates/s). Runs alternate, best of ``--repeats``.
+
+    .venv/bin/python bench/training_throughput.py [--section all|onpolicy|offpolicy] [--steps 20000]
+        [--warmup 3000] [--repeats 3] [--variants fast:2 fast:1 mushroom:2] [--profile]
+        [--off-steps 1000] [--off-warmup 2000] [--off-threads 1] [--off-variants sqil iq_learn lsiq sac]
 """
 
 from __future__ import annotations
@@ -33,10 +48,14 @@ import loco_mujoco as lm  # noqa: E402  (first: it patches mushroom-rl before mu
 
 # isort: split
 import torch  # noqa: E402
+import torch.nn.functional as F  # noqa: E402
+from mushroom_rl.algorithms.actor_critic import SAC  # noqa: E402
 from mushroom_rl.core import Core  # noqa: E402
+from torch import nn  # noqa: E402
 
 from baselines import make_agent  # noqa: E402
 from baselines.common.fast_trpo import default_num_threads  # noqa: E402
+from baselines.common.networks import MushroomMLP, build_mlp  # noqa: E402
 
 ENV = "UnitreeH1.walk"
 STEPS_PER_FIT = 1000  # environment steps per fit: train.n_steps_per_fit of configs/defaults.yaml (adversarial)
@@ -142,16 +161,87 @@ def profile_run(env: lm.LocoEnv, variant: tuple[str, int], warmup: int, steps: i
               f"{'overlapped':>10s}")
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--steps", type=int, default=20_000, help="timed env steps per run")
-    parser.add_argument("--warmup", type=int, default=3_000, help="untimed env steps before each run")
-    parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--variants", nargs="+", type=parse_variant, default=None,
-                        help="learner:threads, e.g. fast:2 fast:1 mushroom:2 (the default on 2 cores)")
-    parser.add_argument("--profile", action="store_true", help="also profile one run per variant")
-    parser.add_argument("--profile-steps", type=int, default=10_000)
-    args = parser.parse_args()
+# ---- off-policy ------------------------------------------------------------------------------------------
+OFF_ENV = "UnitreeH1.walk.perfect"
+OFF_VARIANTS = ("sqil", "iq_learn", "lsiq", "sac")
+OFF_LABELS = {"sqil": "ours, SQIL", "iq_learn": "ours, IQ-Learn", "lsiq": "ours, LS-IQ",
+              "sac": "Mushroom-RL SAC (unmodified)"}
+HIDDEN, BATCH, ACTOR_LR, CRITIC_LR, TAU = (256, 256), 256, 3e-5, 3e-4, 0.005
+
+
+class SACCritic(nn.Module):
+    """Mushroom's critic interface ``forward(state, action)``: an MLP on ``[s, a]`` (same init as ours)."""
+
+    def __init__(self, input_shape: tuple[int, ...], output_shape: tuple[int, ...], seed: int = 0, **_: object):
+        super().__init__()
+        self.net = build_mlp(input_shape[0], output_shape[0], HIDDEN, "relu", output_std=1e-3,
+                             generator=torch.Generator().manual_seed(seed))
+
+    def forward(self, state: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
+        return torch.squeeze(self.net(torch.cat([state.float(), action.float()], dim=1)), 1)
+
+
+def build_offpolicy(env: lm.LocoEnv, variant: str, warmup: int) -> tuple[Core, float]:
+    """A fresh agent whose updates start after ``warmup`` steps, and the collection rate of that warm-up."""
+    if variant == "sac":
+        obs, act = env.info.observation_space.shape, env.info.action_space.shape
+        actor = dict(network=MushroomMLP, input_shape=obs, output_shape=act, hidden=HIDDEN, output_std=1e-3)
+        critic = dict(network=SACCritic, input_shape=(obs[0] + act[0],), output_shape=(1,), loss=F.mse_loss,
+                      optimizer={"class": torch.optim.Adam, "params": {"lr": CRITIC_LR}})
+        agent = SAC(env.info, actor, dict(actor), {"class": torch.optim.Adam, "params": {"lr": ACTOR_LR}}, critic,
+                    batch_size=2 * BATCH, initial_replay_size=warmup, max_replay_size=1_000_000,
+                    warmup_transitions=warmup, tau=TAU, lr_alpha=3e-4, log_std_min=-5, log_std_max=2)
+    else:
+        agent = make_agent(variant, env, {"actor_hidden": HIDDEN, "critic_hidden": HIDDEN, "batch_size": BATCH,
+                                          "actor_lr": ACTOR_LR, "critic_lr": CRITIC_LR, "tau": TAU,
+                                          "initial_samples": warmup + 1, "n_threads": torch.get_num_threads()},
+                           seed=0)
+    env.seed(0)
+    core = Core(agent, env)
+    t0 = time.perf_counter()
+    core.learn(n_steps=warmup, n_steps_per_fit=1, quiet=True)
+    return core, warmup / (time.perf_counter() - t0)
+
+
+def timed_offpolicy_run(core: Core, steps: int) -> float:
+    """Env steps per second of ``Core.learn`` with one update per step."""
+    before = getattr(core.agent, "updates", None)
+    t0 = time.perf_counter()
+    core.learn(n_steps=steps, n_steps_per_fit=1, quiet=True)
+    rate = steps / (time.perf_counter() - t0)
+    if before is not None and core.agent.updates - before != steps:
+        raise RuntimeError(f"expected {steps} updates, got {core.agent.updates - before}")
+    return rate
+
+
+def offpolicy_section(args: argparse.Namespace) -> None:
+    torch.set_num_threads(args.off_threads)
+    env = lm.LocoEnv.make(OFF_ENV)
+    print(f"\nOff-policy on {OFF_ENV}: {args.off_steps} timed steps (one update each) per run after "
+          f"{args.off_warmup} collection steps, best of {args.repeats}; {args.off_threads} torch thread(s), "
+          f"updates of {BATCH} + {BATCH} transitions, MLPs {list(HIDDEN)}; load average {os.getloadavg()[0]:.2f}")
+    loop: dict[str, list[float]] = {v: [] for v in args.off_variants}
+    collect: dict[str, list[float]] = {v: [] for v in args.off_variants}
+    for _ in range(args.repeats):
+        for variant in args.off_variants:
+            core, collection_rate = build_offpolicy(env, variant, args.off_warmup)
+            collect[variant].append(collection_rate)
+            loop[variant].append(timed_offpolicy_run(core, args.off_steps))
+    print(f"\n  {'variant':30s} {'steps/s = updates/s, each run':30s} {'best':>7s} {'ms/step':>8s} "
+          f"{'collection only, steps/s':>25s}")
+    for variant in args.off_variants:
+        best = max(loop[variant])
+        print(f"  {OFF_LABELS[variant]:30s} {', '.join(f'{r:.1f}' for r in loop[variant]):30s} {best:7.1f} "
+              f"{1e3 / best:8.2f} {max(collect[variant]):25,.0f}")
+    if "sac" in loop:
+        sac = max(loop["sac"])
+        for variant in (v for v in args.off_variants if v != "sac"):
+            ratio = max(loop[variant]) / sac
+            print(f"  speed-up {OFF_LABELS[variant]} / Mushroom SAC: {ratio:.2f}x "
+                  f"(goal >= 2x: {'met' if ratio >= 2 else 'NOT met'})")
+
+
+def onpolicy_section(args: argparse.Namespace) -> None:
     default = default_num_threads()
     variants = args.variants or list(dict.fromkeys([("fast", default), ("fast", 1), ("mushroom", default)]))
 
@@ -176,6 +266,27 @@ def main() -> None:
     if args.profile:
         for variant in variants:
             profile_run(env, variant, args.warmup, args.profile_steps)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--steps", type=int, default=20_000, help="timed env steps per run")
+    parser.add_argument("--warmup", type=int, default=3_000, help="untimed env steps before each run")
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--variants", nargs="+", type=parse_variant, default=None,
+                        help="learner:threads, e.g. fast:2 fast:1 mushroom:2 (the default on 2 cores)")
+    parser.add_argument("--profile", action="store_true", help="also profile one run per variant")
+    parser.add_argument("--profile-steps", type=int, default=10_000)
+    parser.add_argument("--section", choices=("all", "onpolicy", "offpolicy"), default="all")
+    parser.add_argument("--off-steps", type=int, default=1_000, help="timed steps (= updates) per off-policy run")
+    parser.add_argument("--off-warmup", type=int, default=2_000, help="collection steps before the updates start")
+    parser.add_argument("--off-threads", type=int, default=1, help="torch threads of the off-policy runs")
+    parser.add_argument("--off-variants", nargs="+", choices=OFF_VARIANTS, default=list(OFF_VARIANTS))
+    args = parser.parse_args()
+    if args.section in ("all", "onpolicy"):
+        onpolicy_section(args)
+    if args.section in ("all", "offpolicy"):
+        offpolicy_section(args)
 
 
 if __name__ == "__main__":

@@ -32,7 +32,8 @@ def kinematic_obs_mask(env: Any) -> np.ndarray:
 
 
 class ExpertData:
-    """Masked expert ``states`` / ``next_states`` (float32) and, where the dataset has them, ``actions``."""
+    """Masked expert ``states`` / ``next_states`` (float32), ``absorbing`` flags (all False where the dataset has
+    none) and, where the dataset has them, ``actions``."""
 
     def __init__(self, dataset: dict[str, np.ndarray], obs_mask: np.ndarray):
         self.obs_mask = np.asarray(obs_mask, dtype=bool)
@@ -40,6 +41,8 @@ class ExpertData:
         self.next_states = np.ascontiguousarray(dataset["next_states"][:, self.obs_mask], dtype=np.float32)
         actions = dataset.get("actions")
         self.actions = None if actions is None else np.ascontiguousarray(actions, dtype=np.float32)
+        absorbing = dataset.get("absorbing")
+        self.absorbing = np.zeros(len(self.states), bool) if absorbing is None else np.asarray(absorbing, bool)
         if len(self.states) == 0:
             raise ValueError("the expert dataset is empty")
 

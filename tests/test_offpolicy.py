@@ -1,0 +1,234 @@
+"""IQ-Learn, LS-IQ and SQIL: updates on real data, their losses' defining properties, the actor's hand-written
+gradient, and exact resumption from a checkpoint plus the replay buffer saved beside it."""
+
+import numpy as np
+import pytest
+import torch
+from mushroom_rl.core import Core
+
+import loco_mujoco as lm
+from baselines import ALGORITHMS, make_agent
+from baselines.common.expert_data import ExpertData
+from baselines.common.offpolicy import CriticBatch
+from baselines.common.twin_critic import TwinCritic
+from baselines.config import load_run_config
+from baselines.lsiq.lsiq import lsiq_value_target, q_bound
+from baselines.sqil.sqil import sqil_loss, sqil_rewards
+
+OFFPOLICY = ["iq_learn", "lsiq", "sqil"]
+SMALL = {"actor_hidden": [32, 32], "critic_hidden": [32, 32], "batch_size": 32, "initial_samples": 100,
+         "n_threads": 1}
+
+
+@pytest.fixture(scope="module")
+def env():
+    return lm.LocoEnv.make("UnitreeH1.walk.perfect", horizon=100)
+
+
+@pytest.fixture(scope="module", autouse=True)
+def restore_torch_threads():
+    threads = torch.get_num_threads()
+    yield
+    torch.set_num_threads(threads)
+
+
+def learn(agent, env, n_steps, seed=0):
+    env.seed(seed)
+    Core(agent, env).learn(n_steps=n_steps, n_steps_per_fit=1, quiet=True)
+
+
+@pytest.mark.parametrize("algorithm", OFFPOLICY)
+def test_updates_on_expert_data_give_finite_losses(env, algorithm):
+    agent = make_agent(algorithm, env, config=SMALL, seed=0)
+    assert ALGORITHMS[algorithm].family == "offpolicy"
+    before = [p.detach().clone() for p in agent.policy.parameters()]
+    learn(agent, env, 300)
+    stats = agent.last_stats
+    assert agent.updates == 201 and stats["updates"] == 201 and stats["replay_size"] == 300
+    assert all(np.isfinite(v) for v in stats.values()), stats
+    assert stats["alpha"] == pytest.approx(1e-3, rel=1e-5)  # fixed temperature
+    assert all(not torch.equal(a, b) for a, b in zip(before, agent.policy.parameters(), strict=True))
+    with agent.policy.evaluation_mode(deterministic=True, seed=0):  # the mean action, inside the box
+        action = agent.draw_action(env.reset())
+    assert action.shape == (11,) and np.all(np.abs(action) < 1)
+
+
+def test_budget_scales_the_warm_up(env):
+    agent = make_agent("lsiq", env, config={**SMALL, "initial_samples": 10_000}, seed=0)
+    agent.set_budget(50_000)
+    assert agent.warmup == 5_000
+    agent.set_budget(100)
+    assert agent.warmup == SMALL["batch_size"]  # never below one batch
+
+
+def test_lsiq_targets_and_values_stay_within_the_bound(env):
+    gamma, c = 0.99, 0.5
+    q_max = q_bound(c, gamma)
+    assert q_max == pytest.approx(200.0)
+    next_v = torch.tensor([-1e6, -50.0, 0.0, 50.0, 1e6, 1e6])
+    absorbing = torch.tensor([0.0, 0.0, 0.0, 0.0, 0.0, 1.0])
+    target = lsiq_value_target(next_v, absorbing, gamma, c)
+    assert torch.all(target.abs() <= q_max + 1e-4)
+    assert target[0] == pytest.approx(-q_max) and target[-1] == pytest.approx(-q_max)  # absorbing: -Q_max forever
+    assert target[2] == pytest.approx(-1 / c)
+
+    # A strong regulariser (Q_max = 2) and a fast critic: the expert's values converge to the bound and no value
+    # leaves it by more than the regression error of a tiny network.
+    agent = make_agent("lsiq", env, config={**SMALL, "reg_mult": 50.0, "critic_lr": 3e-3}, seed=0)
+    bound = q_bound(50.0, agent.mdp_info.gamma)
+    learn(agent, env, 600)
+    q_all, q_expert = [], []
+    for _ in range(10):
+        x, action, _, _ = agent._sample()
+        with torch.no_grad():
+            q, _ = agent.critic(torch.cat([x, action], 1))
+        q_all.append(q)
+        q_expert.append(q[:, SMALL["batch_size"]:])
+    assert 0.9 * bound < torch.cat(q_expert, 1).mean() < 1.1 * bound
+    assert torch.cat(q_all, 1).abs().max() < 1.5 * bound
+
+
+def test_sqil_rewards_are_one_for_expert_and_zero_for_agent_samples(env):
+    agent = make_agent("sqil", env, config=SMALL, seed=0)
+    learn(agent, env, 120)
+    x, action, x_next, absorbing = agent._sample()
+    b = SMALL["batch_size"]
+    expert = agent.obs_standardizer.normalize_torch(agent._expert_states)
+    own = agent.obs_standardizer.normalize_torch(torch.from_numpy(agent.buffer.states[:agent.buffer.size]))
+
+    def distance_to_nearest(rows, pool):
+        return torch.cdist(rows, pool, compute_mode="donot_use_mm_for_euclid_dist").amin(1).max()
+
+    assert distance_to_nearest(x[:b], own) < 1e-5  # the first half: the agent's own transitions,
+    assert distance_to_nearest(x[b:], expert) < 1e-5  # the second: the expert's
+    with torch.no_grad():
+        q, _ = agent.critic(torch.cat([x, action], 1))
+    next_v = torch.randn(2 * b)
+    batch = CriticBatch(q=q, v=q, next_v=next_v, absorbing=absorbing, n_agent=b, gamma=0.99)
+    rewards = sqil_rewards(batch)
+    assert torch.equal(rewards, torch.cat([torch.zeros(b), torch.ones(b)]))
+    loss, _ = sqil_loss(batch)
+    expected = sum(((q[j] - rewards - 0.99 * (1 - absorbing) * next_v) ** 2).mean() for j in range(2))
+    assert loss.item() == pytest.approx(expected.item(), rel=1e-5)
+
+
+def test_iq_learn_loss_modes_differ(env):
+    losses = {}
+    for mode in ("value", "v0"):
+        agent = make_agent("iq_learn", env, config={**SMALL, "loss_mode": mode}, seed=0)
+        learn(agent, env, 150)
+        losses[mode] = agent.last_stats["value_term"]
+        assert np.isfinite(agent.last_stats["critic_loss"]) and np.isfinite(agent.last_stats["chi2_term"])
+    assert losses["value"] != losses["v0"]
+
+
+@pytest.mark.parametrize("activation", ["relu", "tanh"])
+def test_actor_gradient_through_the_critics_matches_autograd(activation):
+    critic = TwinCritic(5, 3, (16, 8), activation, generator=torch.Generator().manual_seed(1))
+    with torch.no_grad():
+        critic.weights[-1].normal_()
+    x, a, grad_q = torch.randn(7, 5), torch.randn(7, 3, requires_grad=True), torch.randn(2, 7)
+    _, hidden = critic(torch.cat([x, a.detach()], 1), keep=True)
+    values, _ = critic(torch.cat([x, a], 1))
+    (expected,) = torch.autograd.grad((values * grad_q).sum(), a)
+    assert torch.allclose(critic.action_gradient(hidden, grad_q), expected, atol=1e-6)
+
+
+def test_lsiq_from_observations_learns_an_inverse_model(env):
+    data = env.create_dataset()
+    expert = ExpertData({k: v for k, v in data.items() if k != "actions"}, np.ones(33, dtype=bool))
+    with pytest.raises(ValueError, match="needs expert actions"):
+        make_agent("lsiq", env, config=SMALL, expert=expert)
+    agent = make_agent("lsiq", env, config={**SMALL, "from_observations": True}, seed=0, expert=expert)
+    learn(agent, env, 300)
+    first = agent.last_stats["inverse_model_loss"]
+    learn(agent, env, 300)
+    assert agent.updates == 501 and 0 < agent.last_stats["inverse_model_loss"] < first
+
+
+def test_offpolicy_family_config():
+    run = load_run_config("UnitreeH1.walk", "lsiq")
+    assert run.train.n_steps_per_fit == 1 and run.train.expert_actions == "auto"
+    assert run.agent.reg_mult == 0.5 and run.agent.batch_size == 256 and run.agent.actor_lr == 3e-5
+    assert load_run_config("HumanoidMuscle.walk", "sqil").agent.from_observations
+
+
+@pytest.mark.parametrize(("algorithm", "extra"), [("lsiq", {"learn_alpha": True}), ("iq_learn", {}), ("sqil", {}),
+                                                   ("lsiq", {"from_observations": True})])
+def test_resume_from_checkpoint_and_buffer_is_exact(env, algorithm, extra, tmp_path):
+    config = {**SMALL, **extra}
+    straight = make_agent(algorithm, env, config=config, seed=3)
+    env.seed(0)
+    core = Core(straight, env)
+    core.learn(n_steps=200, n_steps_per_fit=1, quiet=True)  # two epochs of Core.learn, as the trainer runs them
+    core.learn(n_steps=200, n_steps_per_fit=1, quiet=True)
+
+    first = make_agent(algorithm, env, config=config, seed=3)
+    env.seed(0)
+    Core(first, env).learn(n_steps=200, n_steps_per_fit=1, quiet=True)
+    torch.save(first.state_dict(), tmp_path / "checkpoint.pt")
+    first.save_buffer(tmp_path / "replay.npz")
+    env_rng = env._rng.bit_generator.state
+
+    resumed = make_agent(algorithm, env, config=config, seed=99)  # everything must come from the files
+    resumed.load_state_dict(torch.load(tmp_path / "checkpoint.pt", weights_only=True))
+    resumed.load_buffer(tmp_path / "replay.npz")
+    env.seed(12345)
+    env._rng.bit_generator.state = env_rng
+    Core(resumed, env).learn(n_steps=200, n_steps_per_fit=1, quiet=True)
+
+    a, b = straight.state_dict(), resumed.state_dict()
+    assert a["updates"] == b["updates"] == 301 and a["transitions"] == b["transitions"] == 400
+    for key in ("critic", "target_critic"):
+        for name, tensor in a[key].items():
+            assert torch.equal(tensor, b[key][name]), (key, name)
+    for name, tensor in a["policy"]["net"].items():
+        assert torch.equal(tensor, b["policy"]["net"][name]), name
+    assert torch.equal(a["log_alpha"], b["log_alpha"])
+    assert (a["log_alpha"] != np.float32(np.log(1e-3))) == config.get("learn_alpha", False)
+    keys = ["actor_optimizer", "critic_optimizer"] + ["alpha_optimizer"] * bool(a["alpha_optimizer"])
+    if config.get("from_observations"):
+        for name, tensor in a["inverse_model"]["net"].items():
+            assert torch.equal(tensor, b["inverse_model"]["net"][name]), name
+        keys.append("inverse_model")
+    for key in keys:
+        optimizer_a = a[key]["optimizer"] if key == "inverse_model" else a[key]
+        optimizer_b = b[key]["optimizer"] if key == "inverse_model" else b[key]
+        for i, state in optimizer_a["state"].items():
+            assert all(torch.equal(v, optimizer_b["state"][i][k]) for k, v in state.items()), (key, i)
+    assert a["rng"] == b["rng"] and a["policy"]["rng"] == b["policy"]["rng"]
+    assert torch.equal(a["torch_rng"], b["torch_rng"]) and a["stats"] == b["stats"]
+    for name in ("states", "actions", "next_states", "absorbing"):
+        assert np.array_equal(getattr(straight.buffer, name), getattr(resumed.buffer, name)), name
+
+    with pytest.raises(ValueError, match="not from the same moment"):
+        resumed.load_buffer(tmp_path / "replay.npz")  # the buffer of 200 transitions, the agent after 400
+
+
+def test_warm_start_without_buffer_refills_it_before_updating(env, tmp_path):
+    source = make_agent("sqil", env, config=SMALL, seed=0)
+    learn(source, env, 200)
+    warm = make_agent("sqil", env, config=SMALL, seed=1)
+    warm.load_state_dict(source.state_dict())  # a warm start: weights and counters, no replay buffer
+    learn(warm, env, 150)
+    assert warm.buffer.size == 150 and warm.updates == source.updates + 51  # updates resume at 100 transitions
+    warm.save_buffer(tmp_path / "replay.npz")
+    resumed = make_agent("sqil", env, config=SMALL, seed=2)
+    resumed.load_state_dict(warm.state_dict())
+    resumed.load_buffer(tmp_path / "replay.npz")
+    assert resumed.buffer.size == 150 and resumed.transitions == 350
+
+
+def test_entries_unknown_to_the_expert_are_hidden_from_the_networks(env):
+    data = env.create_dataset()
+    data = {**data, "states": data["states"].copy(), "next_states": data["next_states"].copy()}
+    data["states"][:, 5] = data["next_states"][:, 5] = np.nan  # e.g. a carried load motion capture cannot know
+    agent = make_agent("iq_learn", env, config=SMALL, seed=0, expert=ExpertData(data, np.ones(33, dtype=bool)))
+    assert agent.policy.obs_dim == 32 and not agent.policy.obs_mask[5] and agent.buffer.obs_dim == 32
+    obs = env.reset()
+    action = agent.draw_action(obs)
+    obs[5] = 1e6  # what the networks do not see cannot change the action
+    with agent.policy.evaluation_mode(deterministic=True):
+        assert np.array_equal(agent.draw_action(obs), agent.draw_action(np.where(np.arange(33) == 5, 0.0, obs)))
+    learn(agent, env, 150)
+    assert np.isfinite(agent.last_stats["critic_loss"]) and action.shape == (11,)
