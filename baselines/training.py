@@ -40,6 +40,7 @@ CHECKPOINT = "checkpoint.pt"
 CHECKPOINT_FORMAT = 1
 INIT_FROM_PROGRESS = "init_from_progress.csv"  # a warm-started run's copy of its source's log
 REPLAY = "replay.npz"  # an off-policy run's replay buffer, beside its checkpoint (large: never committed)
+REPLAY_NEXT = "replay.next.npz"  # the buffer being written with the next checkpoint
 
 
 def make_env(run: RunConfig, seed: int) -> Any:
@@ -247,23 +248,29 @@ class Trainer:
                 "torch_rng": torch.get_rng_state(), "numpy_rng": _numpy_global_state()}
 
     def save(self) -> None:
-        if hasattr(self.agent, "save_buffer"):  # off-policy: the replay buffer beside the checkpoint, never in git
-            self.agent.save_buffer(self.out_dir / REPLAY)
+        buffered = hasattr(self.agent, "save_buffer")  # off-policy: the replay buffer beside the checkpoint
+        if buffered:  # written in full first, then both files swapped in: a kill leaves a matching pair
+            self.agent.save_buffer(self.out_dir / REPLAY_NEXT)
         tmp = self.checkpoint_path.with_suffix(".tmp")
         torch.save(self.state_dict(), tmp)
         os.replace(tmp, self.checkpoint_path)
+        if buffered:
+            os.replace(self.out_dir / REPLAY_NEXT, self.out_dir / REPLAY)
 
     def _restore_buffer(self) -> None:
         """The replay buffer saved with the checkpoint; without it (only the committed small state survived) the run
         goes on as a documented warm start, and says so."""
-        path = self.out_dir / REPLAY
-        if not path.exists():
+        candidates = [p for p in (self.out_dir / REPLAY, self.out_dir / REPLAY_NEXT) if p.exists()]
+        if not candidates:
             _replay_notice(self, f"no {REPLAY} beside the checkpoint")
             return
-        try:
-            self.agent.load_buffer(path)
-        except ValueError as err:  # killed between writing the buffer and the checkpoint
-            _replay_notice(self, str(err))
+        for path in candidates:  # REPLAY_NEXT matches when a kill fell between the two renames of save()
+            try:
+                self.agent.load_buffer(path)
+                return
+            except ValueError as err:
+                reason = str(err)
+        _replay_notice(self, reason)
 
     def _warm_start(self, state: dict[str, Any]) -> None:
         try:

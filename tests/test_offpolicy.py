@@ -232,3 +232,33 @@ def test_entries_unknown_to_the_expert_are_hidden_from_the_networks(env):
         assert np.array_equal(agent.draw_action(obs), agent.draw_action(np.where(np.arange(33) == 5, 0.0, obs)))
     learn(agent, env, 150)
     assert np.isfinite(agent.last_stats["critic_loss"]) and action.shape == (11,)
+
+
+def test_trainer_resumes_an_offpolicy_run_exactly_and_says_when_it_cannot(tmp_path):
+    """Through the Trainer: the buffer is saved beside the checkpoint; with it a resume is exact, without it the
+    run goes on as a warm start and warns."""
+    import shutil
+
+    from baselines.training import REPLAY, Trainer, load_checkpoint
+
+    def run(n_steps):
+        return load_run_config("UnitreeH1.walk.perfect", "lsiq", overrides={
+            "train": {"n_steps": n_steps, "epoch_steps": 300, "n_eval_episodes": 1}, "env": {"horizon": 50},
+            "agent": {**SMALL, "initial_samples": 20, "n_threads": 1}})  # warm-up = batch size for both budgets
+
+    threads = torch.get_num_threads()
+    try:
+        Trainer(run(600), tmp_path / "straight", progress=False).train()
+        Trainer(run(300), tmp_path / "split", progress=False).train()
+        shutil.copytree(tmp_path / "split", tmp_path / "nobuffer")
+        (tmp_path / "nobuffer" / REPLAY).unlink()
+        assert (tmp_path / "split" / REPLAY).exists() and not (tmp_path / "split" / "replay.next.npz").exists()
+        Trainer(run(600), tmp_path / "split", resume=True, progress=False).train()
+        with pytest.warns(UserWarning, match="continues as a warm start"):
+            Trainer(run(600), tmp_path / "nobuffer", resume=True, progress=False)
+    finally:
+        torch.set_num_threads(threads)
+    a, b = (load_checkpoint(tmp_path / d)["agent"] for d in ("straight", "split"))
+    for name, tensor in a["critic"].items():
+        assert torch.equal(tensor, b["critic"][name]), name
+    assert a["updates"] == b["updates"] > 0 and a["rng"] == b["rng"]
