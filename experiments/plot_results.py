@@ -92,7 +92,8 @@ def plot_run(run_dir: Path, out_dir: Path | None = None, force: bool = False,
     # Runs logged since the evaluation protocol carry the normalised score (random policy at 0); older runs only
     # their task return R, under the reward of their time, so no reference line is drawn for it.
     random = {"L": refs.random_length, "score": 0.0}
-    middle = ("score", "normalised score (random 0, expert 100)") if "score" in progress else ("R", "task return R (reward of its time)")
+    middle = (("score", "normalised score (random 0, expert 100)") if "score" in progress
+              else ("R", "task return R (reward of its time)"))
 
     steps = [s / 1e6 for s in progress["step"]]
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.6))
