@@ -152,7 +152,8 @@ def main(argv: list[str] | None = None) -> int:
     env = protocol.evaluation_env(run.task, run.env, seed=args.seed)  # the real task, whatever data it trained on
     print(f"{run.algorithm} on {run.task}, seed {run.seed}: epoch {state['epoch']}, {state['steps']:,} training steps")
     refs = references(run.task, run.env, progress=True)
-    print(f"references ({run.task}, {', '.join(f'{k}={v}' for k, v in run.env.items())}): expert R "
+    eval_task, eval_kwargs = protocol.evaluation_task(run.task, run.env)
+    print(f"references ({eval_task}, {', '.join(f'{k}={v}' for k, v in eval_kwargs.items())}): expert R "
           f"{refs.expert_return:.1f}, random R {refs.random_return:.1f} (L {refs.random_length:.1f}), "
           f"zero action R {refs.zero_return:.1f}, hold pose R {refs.hold_return:.1f}")
 
