@@ -97,8 +97,11 @@ def plot_run(run_dir: Path, out_dir: Path | None = None, force: bool = False,
 
     steps = [s / 1e6 for s in progress["step"]]
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.6))
-    for ax, key, label in zip(axes, ("L", middle[0], "disc_reward_mean"),
-                              ("episode length L", middle[1], "discriminator reward / step"), strict=True):
+    third = next(((k, t) for k, t in (("disc_reward_mean", "discriminator reward / step"),
+                                      ("critic_loss", "critic loss"), ("bc_nll", "BC negative log-likelihood"))
+                  if k in progress), ("R", "task return R"))  # what each algorithm family logs about its learning
+    for ax, key, label in zip(axes, ("L", middle[0], third[0]), ("episode length L", middle[1], third[1]),
+                              strict=True):
         if source is not None and key in source:
             ax.plot([s / 1e6 for s in source["step"]], source[key], color="tab:grey", alpha=0.7,
                     label="before the warm start")
