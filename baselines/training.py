@@ -54,10 +54,11 @@ def dataset_identity(env: Any) -> dict[str, Any]:
     was joined in memory, e.g. the body sizes of mode ``all``)."""
     import hashlib
 
+    from loco_mujoco.agent_datasets import file_sha256
+
     ds = env.dataset
     if ds.source_file is not None:
-        path = Path(ds.source_file)
-        return {"file": path.name, "sha256": hashlib.sha256(path.read_bytes()).hexdigest()}
+        return {"file": Path(ds.source_file).name, "sha256": file_sha256(ds.source_file)}
     h = hashlib.sha256(np.ascontiguousarray(ds.qpos).tobytes() + np.ascontiguousarray(ds.qvel).tobytes())
     return {"file": None, "states_sha256": h.hexdigest()}
 

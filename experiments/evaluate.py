@@ -25,7 +25,7 @@ import numpy as np  # noqa: E402
 
 from loco_mujoco.evaluation import protocol  # noqa: E402
 from loco_mujoco.evaluation.intervals import format_summary, summarize  # noqa: E402
-from loco_mujoco.evaluation.references import References, references, stand_still_scores  # noqa: E402
+from loco_mujoco.evaluation.references import references, stand_still_scores  # noqa: E402
 
 METRIC_UNITS = {"euclidean": "mean per-step distance", "dtw": "RMS per-step distance along the DTW path",
                 "frechet": "discrete Frechet distance", "joints": "rad", "sites": "m"}
@@ -70,11 +70,6 @@ def print_references(tasks: list[str], refresh: bool) -> list[dict]:
                    f"{s['zero']:12.2f}{s['hold']:12.2f}")
         rows.append({"task": task, **refs.__dict__, "stand_still_scores": s})
     return rows
-
-
-def score_block(refs: References, returns: np.ndarray, seed: int) -> dict:
-    """The normalised score of ``returns`` with its interval."""
-    return summarize(refs.normalized_score(returns), seed=seed)
 
 
 def print_metrics(m: dict) -> None:
@@ -165,7 +160,7 @@ def main(argv: list[str] | None = None) -> int:
         evaluations["stochastic"] = evaluate_agent(agent, env, args.episodes, False, args.seed, progress=True)
     for name, ev in evaluations.items():
         summary = ev.summary()
-        score = score_block(refs, ev.returns, args.seed)
+        score = summarize(refs.normalized_score(ev.returns), seed=args.seed)
         results[name] = {"score": score, **summary, "statistics": ev.statistics(),
                          "returns": ev.returns.tolist(), "lengths": ev.lengths.tolist()}
         print(f"{name:>13}: score {format_summary(score)}  ({args.episodes} episodes, 95% CI)")

@@ -257,7 +257,7 @@ def agent_dataset_path(name: str, rebuild: bool = False, progress: bool = True) 
         return path
     build_agent_dataset(name, progress).save(path)
     expected = sha256_file(name)
-    actual = hashlib.sha256(path.read_bytes()).hexdigest()
+    actual = file_sha256(path)
     if expected.exists() and expected.read_text().split()[0] != actual:
         warnings.warn(f"{name}: the dataset built here (sha256 {actual[:16]}...) differs from the one its recipe's "
                       f"author built ({expected.read_text().split()[0][:16]}...), as on another CPU; results on it "

@@ -35,7 +35,22 @@ _NUMPY_ACTIVATIONS = {
 }
 
 
-class GaussianPolicy(TorchPolicy):
+class EvaluationModeMixin:
+    """``evaluation_mode``: deterministic or seeded stochastic actions for evaluation, without consuming the
+    policy's own exploration generator (``self.rng``; ``self.deterministic`` selects the action rule)."""
+
+    @contextmanager
+    def evaluation_mode(self, deterministic: bool, seed: int | None = None) -> Iterator[None]:
+        """Deterministic actions or stochastic ones from a separate generator; training noise untouched."""
+        saved = self.deterministic, self.rng
+        self.deterministic, self.rng = deterministic, np.random.default_rng(seed)
+        try:
+            yield
+        finally:
+            self.deterministic, self.rng = saved
+
+
+class GaussianPolicy(EvaluationModeMixin, TorchPolicy):
     """``a ~ N(mu(standardize(s)), diag(exp(log_std))^2)``; ``mu`` an MLP, ``log_std`` a free parameter."""
 
     def __init__(self, obs_dim: int, act_dim: int, hidden: Sequence[int] = (512, 256), activation: str = "relu",
@@ -88,16 +103,6 @@ class GaussianPolicy(TorchPolicy):
         self._np_layers = layers
         self._np_std = np.exp(self.log_std.detach().numpy().astype(np.float64))
         self._cache_key = key
-
-    @contextmanager
-    def evaluation_mode(self, deterministic: bool, seed: int | None = None) -> Iterator[None]:
-        """Deterministic (mean) or stochastic actions from a separate generator; training noise untouched."""
-        saved = self.deterministic, self.rng
-        self.deterministic, self.rng = deterministic, np.random.default_rng(seed)
-        try:
-            yield
-        finally:
-            self.deterministic, self.rng = saved
 
     # ---- batch operations (torch), the TorchPolicy interface ------------------------------------------------
     def mean_t(self, state: torch.Tensor) -> torch.Tensor:

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
@@ -28,14 +27,14 @@ import torch.nn.functional as F
 from mushroom_rl.policy import Policy
 
 from baselines.common.networks import build_mlp
-from baselines.common.policy import _NUMPY_ACTIVATIONS
+from baselines.common.policy import _NUMPY_ACTIVATIONS, EvaluationModeMixin
 from baselines.common.standardizer import RunningStandardizer
 
 _LOG_2 = math.log(2.0)
 _HALF_LOG_2PI = 0.5 * math.log(2.0 * math.pi)
 
 
-class TanhGaussianPolicy(Policy):
+class TanhGaussianPolicy(EvaluationModeMixin, Policy):
     """``a = tanh(u)``, ``u ~ N(mu(x), exp(log_std(x))^2)`` with ``x`` = standardized ``s[obs_mask]``."""
 
     def __init__(self, obs_mask: np.ndarray, act_dim: int, standardizer: RunningStandardizer,
@@ -70,16 +69,6 @@ class TanhGaussianPolicy(Policy):
         modules = list(self.net)
         self._np_layers = [(modules[i].weight.detach().numpy().T, modules[i].bias.detach().numpy(),
                             _NUMPY_ACTIVATIONS[type(modules[i + 1])]) for i in range(0, len(modules), 2)]
-
-    @contextmanager
-    def evaluation_mode(self, deterministic: bool, seed: int | None = None) -> Iterator[None]:
-        """Deterministic (``tanh(mu)``) or stochastic actions from a separate generator; training noise untouched."""
-        saved = self.deterministic, self.rng
-        self.deterministic, self.rng = deterministic, np.random.default_rng(seed)
-        try:
-            yield
-        finally:
-            self.deterministic, self.rng = saved
 
     # ---- batch operations (torch) -----------------------------------------------------------------------
     def mean_log_std_t(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:

@@ -45,12 +45,18 @@ def _check(values: np.ndarray) -> np.ndarray:
     return x
 
 
-def _interval(x: np.ndarray, func, method: str, confidence: float, reps: int, seed: int,
+def _interval(values: np.ndarray, func, method: str, min_size: int, confidence: float, reps: int, seed: int,
               **kwargs) -> tuple[float, float]:
-    """``method``'s bootstrap interval of ``func(x)``; the percentile interval where ``method`` is undefined (a
-    small sample whose resamples are often constant: zero standard errors, or BCa's bias at 0 or 1)."""
+    """``method``'s bootstrap interval of ``func(values)``: NaN bounds below ``min_size`` values, the value itself
+    for constant values, and the percentile interval where ``method`` is undefined (a small sample whose
+    resamples are often constant: zero standard errors, or BCa's bias at 0 or 1)."""
     from arch.bootstrap import IIDBootstrap
 
+    x = _check(values)
+    if x.size < min_size:
+        return math.nan, math.nan
+    if np.ptp(x) == 0.0:
+        return float(x[0]), float(x[0])
     with warnings.catch_warnings(), np.errstate(divide="ignore", invalid="ignore"):
         warnings.simplefilter("ignore", RuntimeWarning)
         try:
@@ -67,23 +73,13 @@ def _interval(x: np.ndarray, func, method: str, confidence: float, reps: int, se
 def mean_interval(values: np.ndarray, confidence: float = CONFIDENCE, reps: int = BOOTSTRAP_REPS,
                   seed: int = 0) -> tuple[float, float]:
     """Studentized-bootstrap interval of the mean of ``values`` (NaN bounds for fewer than 2 values)."""
-    x = _check(values)
-    if x.size < 2:
-        return math.nan, math.nan
-    if np.ptp(x) == 0.0:
-        return float(x[0]), float(x[0])
-    return _interval(x, _mean, "studentized", confidence, reps, seed, std_err_func=_standard_error)
+    return _interval(values, _mean, "studentized", 2, confidence, reps, seed, std_err_func=_standard_error)
 
 
 def iqm_interval(values: np.ndarray, confidence: float = CONFIDENCE, reps: int = BOOTSTRAP_REPS,
                  seed: int = 0) -> tuple[float, float]:
     """BCa-bootstrap interval of the interquartile mean of ``values`` (NaN bounds for fewer than 4 values)."""
-    x = _check(values)
-    if x.size < 4:
-        return math.nan, math.nan
-    if np.ptp(x) == 0.0:
-        return float(x[0]), float(x[0])
-    return _interval(x, _iqm, "bca", confidence, reps, seed)
+    return _interval(values, _iqm, "bca", 4, confidence, reps, seed)
 
 
 def summarize(values: np.ndarray, seed: int = 0) -> dict[str, float | list[float]]:

@@ -11,7 +11,7 @@ episodes. Training runs evaluate every epoch with the first ``n_eval_episodes`` 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from tqdm import tqdm
@@ -53,7 +53,6 @@ class Evaluation:
 
     episodes: list[Episode]
     gamma: float
-    extra: dict = field(default_factory=dict)
 
     @property
     def returns(self) -> np.ndarray:

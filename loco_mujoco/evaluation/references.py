@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -106,13 +105,14 @@ def _cache_file(task: str, key: dict):
 
 
 def compute_references(task: str, env_kwargs: dict[str, Any] | None = None, episodes: int = EPISODES,
-                       seed: int = SEED, progress: bool = False) -> References:
-    """Measure the four references of ``task`` for ``LocoEnv.make(task, **env_kwargs)`` (no cache)."""
+                       seed: int = SEED, progress: bool = False, env=None) -> References:
+    """Measure the four references of ``task`` for ``LocoEnv.make(task, **env_kwargs)`` (no cache); ``env``, if
+    given, is that environment already built."""
     from loco_mujoco import LocoEnv
 
     task, kwargs = evaluation_task(task, env_kwargs)
     kwargs = {"random_start": True, **kwargs}
-    env = LocoEnv.make(task, **kwargs)
+    env = env if env is not None else LocoEnv.make(task, **kwargs)
     horizon = int(env.info.horizon)
     per_step = float(env.dataset_task_rewards().mean())
     rnd = run_episodes(env, random_policy(env, seed), episodes, seed, progress=progress, desc=f"{task} random")
@@ -135,15 +135,14 @@ def references(task: str, env_kwargs: dict[str, Any] | None = None, episodes: in
 
     task, kwargs = evaluation_task(task, env_kwargs)
     kwargs = {"random_start": True, **kwargs}
-    probe = LocoEnv.make(task, **kwargs)  # cheap next to the rollouts; validates the task and settings
-    key = {"version": VERSION, "task": task, "settings": _settings(kwargs), "dataset": dataset_digest(probe),
+    env = LocoEnv.make(task, **kwargs)  # its dataset names the cache file; measured on directly when missing
+    key = {"version": VERSION, "task": task, "settings": _settings(kwargs), "dataset": dataset_digest(env),
            "episodes": episodes, "seed": seed}
-    probe.stop()
     path = _cache_file(task, key)
     if path.exists() and not refresh:
-        data = json.loads(path.read_text())
-        return References(**data)
-    refs = compute_references(task, kwargs, episodes, seed, progress)
+        env.stop()
+        return References(**json.loads(path.read_text()))
+    refs = compute_references(task, kwargs, episodes, seed, progress, env=env)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(".tmp")
     tmp.write_text(json.dumps(asdict(refs), indent=1))
@@ -156,7 +155,3 @@ def stand_still_scores(refs: References) -> dict[str, float]:
     return {"zero": float(refs.normalized_score(refs.zero_return)),
             "hold": float(refs.normalized_score(refs.hold_return))}
 
-
-def is_finite_reference(refs: References) -> bool:
-    """The expert beats the random policy by a margin, so the score is well defined."""
-    return math.isfinite(refs.expert_return) and refs.expert_return > refs.random_return + 1.0
