@@ -5,6 +5,10 @@
     python experiments/build_datasets.py --task UnitreeH1.walk --rebuild
     python experiments/build_datasets.py --task HumanoidTorque4Ages.walk.2
     python experiments/build_datasets.py --export-minari UnitreeH1.walk.perfect [--minari-id ID] [--overwrite]
+    python experiments/build_datasets.py --clip ../shared/mocap/cmu/07_02.bvh --robot UnitreeH1   # any clip
+
+The quadruped tasks' permissive datasets are rollouts of our trotting controller (loco_mujoco/controllers);
+every humanoid dataset is checked against the quality goals of loco_mujoco/datasets/quality.py.
 """
 
 from __future__ import annotations
@@ -13,7 +17,9 @@ import argparse
 import sys
 
 from loco_mujoco.core.task_names import environment_class, list_tasks, parse_task_name
-from loco_mujoco.datasets.registry import RECIPES, dataset_kind, load_dataset
+from loco_mujoco.datasets.quality import quality_violations
+from loco_mujoco.datasets.registry import RECIPES, dataset_kind, load_dataset, retarget_file, variants
+from loco_mujoco.datasets.trajectory import TrajectoryDataset
 
 
 def real_datasets(only: str | None = None) -> list[tuple[type, str, str | None, str]]:
@@ -34,7 +40,7 @@ def real_datasets(only: str | None = None) -> list[tuple[type, str, str | None, 
             if mode is not None:
                 parse_task_name(f"{env_cls.__name__}.{task}.{mode}")
         try:
-            kind = dataset_kind(env_cls)
+            kind = dataset_kind(env_cls.dataset_subject())
         except Exception:  # noqa: BLE001 - environments without datasets are listed as such
             continue
         for variant in RECIPES[kind].get(task, {}):
@@ -51,15 +57,31 @@ def main(argv: list[str] | None = None) -> int:
                         help="write TASK's agent dataset (e.g. UnitreeH1.walk.perfect) as a local Minari dataset")
     parser.add_argument("--minari-id", metavar="ID", help="Minari id (default loco-mujoco/<TASK with dashes>-v0)")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing Minari dataset with that id")
+    parser.add_argument("--clip", metavar="PATH", help="retarget one motion file (.bvh .mot .sto .trc .txt) and "
+                        "print its quality figures; with --robot")
+    parser.add_argument("--robot", metavar="NAME", help="the embodiment for --clip, e.g. UnitreeH1")
+    parser.add_argument("--no-foot-lock", action="store_true", help="--clip: the joint mapping alone, no IK")
+    parser.add_argument("--jobs", type=int, default=2, help="datasets built in parallel processes (default 2)")
     args = parser.parse_args(argv)
+    if args.jobs < 1:
+        parser.error(f"--jobs must be at least 1, got {args.jobs}")
     if args.export_minari is None and (args.minari_id is not None or args.overwrite):
         parser.error("--minari-id and --overwrite go with --export-minari TASK")
     if args.export_minari is not None:
         if args.list or args.task or args.rebuild:
             parser.error("--export-minari does not combine with --list, --task or --rebuild")
         return export_minari_dataset(args.export_minari, args.minari_id, args.overwrite)
-    for env_cls, task, mode, variant in real_datasets(args.task):
-        ds = load_dataset(env_cls, task, variant, rebuild=args.rebuild, progress=not args.list, mode=mode)
+    if args.clip is not None or args.robot is not None:
+        if args.clip is None or args.robot is None:
+            parser.error("--clip PATH and --robot NAME go together")
+        return show_clip(args.clip, args.robot, args.task or "walk", not args.no_foot_lock)
+    datasets = real_datasets(args.task)
+    rebuild = args.rebuild
+    if not args.list and args.jobs > 1 and len(datasets) > 1:
+        build_in_parallel(datasets, args.jobs, rebuild)
+        rebuild = False
+    for env_cls, task, mode, variant in datasets:
+        ds = load_real_dataset(env_cls, task, mode, variant, rebuild, progress=not args.list)
         meta = ds.metadata
         label = ".".join([env_cls.__name__, task] + ([mode] if mode else []))
         if not args.list:
@@ -67,17 +89,84 @@ def main(argv: list[str] | None = None) -> int:
             continue
         q = meta["quality"]
         nc = "NON-COMMERCIAL" if meta["noncommercial"] else "commercial use ok"
+        actions = f"actions: yes ({meta.get('env_settings', {}).get('control', '?')} control)" \
+            if ds.actions is not None else "actions: no (inverse dynamics)"
         print(f"{label} [{variant}]  {meta['seconds']:.1f} s at {meta['frequency']:.0f} Hz, "
-              f"{ds.n_trajectories} trajectories, mean speed {meta['mean_forward_speed']:.2f} m/s")
+              f"{ds.n_trajectories} trajectories, mean speed {meta['mean_forward_speed']:.2f} m/s, {actions}")
         print(f"    licence: {', '.join(meta['licences'])} ({nc})")
-        print(f"    sources: {', '.join(s['path'] for s in meta['sources'])}")
-        print(f"    quality: foot sliding {q['foot_sliding_mps']:.3f} m/s (p95 {q['foot_sliding_p95_mps']:.2f}), "
-              f"penetration max {1000 * q['ground_penetration_max_m']:.1f} mm, "
-              f"stance float {1000 * q['stance_float_mean_m']:.1f} mm, "
-              f"joint-limit clipped {100 * q['joint_limit_clipped_fraction']:.2f}%, "
-              f"flight {100 * q['flight_fraction']:.0f}%")
+        print(f"    sources: {', '.join(s.get('path') or s.get('module', '?') for s in meta['sources'])}")
+        print(f"    quality: {quality_line(q)}")
+        if dataset_kind(env_cls) == "human":
+            problems = quality_violations(meta)
+            print("    goals: " + ("met" if not problems else "MISSED: " + "; ".join(problems)))
     if not args.task:
         list_agent_datasets(args.list, args.rebuild)
+    return 0
+
+
+def load_real_dataset(env_cls: type, task: str, mode: str | None, variant: str, rebuild: bool = False,
+                      progress: bool = True) -> TrajectoryDataset:
+    """A real dataset from the cache: retargeted clips, or the controller's rollouts for a generated variant."""
+    if variants(env_cls, task)[variant].generator == "controller":
+        from loco_mujoco.controllers.datasets import controller_dataset_path
+
+        return TrajectoryDataset.load(controller_dataset_path(f"{env_cls.__name__}.{task}", rebuild=rebuild,
+                                                              progress=progress))
+    return load_dataset(env_cls.dataset_subject(), task, variant, rebuild=rebuild, progress=progress, mode=mode)
+
+
+def _build_one(entry: tuple[str, str, str | None, str], rebuild: bool) -> None:
+    env_name, task, mode, variant = entry
+    load_real_dataset(environment_class(env_name), task, mode, variant, rebuild, progress=False)
+
+
+def build_in_parallel(datasets: list[tuple[type, str, str | None, str]], jobs: int, rebuild: bool) -> None:
+    """Build the datasets into the cache in ``jobs`` processes, longest first (walking and carrying clips are
+    the longest); each process writes its own cache files."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    from tqdm import tqdm
+
+    order = sorted(datasets, key=lambda d: (d[1] not in ("walk", "carry"), d[0].__name__, d[1], str(d[2])))
+    entries = [(cls.__name__, task, mode, variant) for cls, task, mode, variant in order]
+    with ProcessPoolExecutor(max_workers=jobs) as pool:
+        futures = [pool.submit(_build_one, entry, rebuild) for entry in entries]
+        for future in tqdm(futures, desc=f"building datasets ({jobs} processes)", unit="dataset"):
+            future.result()
+
+
+def quality_line(q: dict) -> str:
+    """The quality figures of a dataset or clip on one line."""
+    return (f"foot sliding {q['foot_sliding_mps']:.3f} m/s (p95 {q['foot_sliding_p95_mps']:.3f}), "
+            f"penetration max {1000 * q['ground_penetration_max_m']:.1f} mm, "
+            f"stance float {1000 * q['stance_float_mean_m']:.1f} mm, "
+            f"joint-limit clipped {100 * q.get('joint_limit_clipped_fraction', 0.0):.2f}%, "
+            f"flight {100 * q['flight_fraction']:.1f}%")
+
+
+def show_clip(path: str, robot: str, task: str, foot_lock: bool) -> int:
+    """Retarget one motion file onto ``robot`` and print its quality figures against the goals."""
+    try:
+        env_cls = environment_class(robot)
+        subject = env_cls.dataset_subject()
+        if task not in subject.tasks:
+            raise ValueError(f"{robot} has no task {task!r}; tasks: {list(subject.tasks)}")
+        out = retarget_file(path, subject.target(task, None), foot_lock=foot_lock)
+    except (ValueError, FileNotFoundError, RuntimeError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    q = out.quality
+    seconds = (len(out.qpos) - 1) / out.frequency
+    kind = "walking (no flight)" if q.get("walking", 0.0) else "running (flight allowed)"
+    print(f"{path} on {robot}: {len(out.qpos)} frames, {seconds:.1f} s, {kind}, "
+          f"foot lock {'on' if foot_lock else 'off'}")
+    print(f"    speed {q['mean_speed_mps']:.2f} m/s, forward {q['mean_travel_forward_mps']:.2f} m/s, "
+          f"heading change {q['heading_change_deg']:.0f} deg, leg scale {q['leg_length_scale']:.2f}")
+    print(f"    quality: {quality_line(q)}")
+    meta = {"task": task if q.get("walking", 0.0) else "run", "quality": q,
+            "trajectories": [{"name": out.name, "source": str(path), "quality": q}]}
+    problems = quality_violations(meta)
+    print("    goals: " + ("met" if not problems else "MISSED: " + "; ".join(problems)))
     return 0
 
 

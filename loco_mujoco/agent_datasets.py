@@ -224,9 +224,20 @@ def preference_dataset(exports: list[PolicyExport], seed: int = 0, episodes_per_
 
 
 # ---- shipped datasets: built on first use ------------------------------------------------------------------
+def _real_dataset_key(name: str) -> str:
+    """The cache name of the real dataset the rollouts start from: when it changes, so do the rollouts."""
+    from loco_mujoco.core.task_names import environment_class, parse_task_name
+    from loco_mujoco.datasets.registry import cache_path, resolve_variant
+
+    parsed = parse_task_name(_real_name(name))
+    subject = environment_class(parsed.env).dataset_subject()
+    return cache_path(subject, parsed.task, resolve_variant(subject, parsed.task, None), parsed.mode).name
+
+
 def _recipe_key(name: str, recipe: AgentRecipe) -> str:
     shas = [PolicyExport.load(pretrained_root() / e).sha256 for e in recipe.exports]
-    key = json.dumps({"version": VERSION, "name": name, "recipe": asdict(recipe), "exports": shas}, sort_keys=True)
+    key = json.dumps({"version": VERSION, "name": name, "recipe": asdict(recipe), "exports": shas,
+                      "starts": _real_dataset_key(name)}, sort_keys=True)
     return hashlib.sha256(key.encode()).hexdigest()[:12]
 
 

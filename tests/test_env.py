@@ -223,10 +223,9 @@ def test_missing_model_explains_how_to_get_it(monkeypatch, tmp_path):
 @pytest.mark.parametrize("name", BASE_TASKS)
 def test_simulation_defaults_are_100hz_and_the_embodiments_integrator(make_env, name):
     env = make_env(name)
-    muscle = env.control == "muscle"  # explicit Euler at 2.5 ms (bench/timestep_study.py), others implicitfast 2 ms
-    integrator = mujoco.mjtIntegrator.mjINT_EULER if muscle else mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    assert env.model.opt.integrator == integrator
-    assert env.model.opt.timestep == (0.0025 if muscle else 0.002)
+    muscle = env.control == "muscle"  # implicitfast at 5 ms x 2 (bench/timestep_study.py), others at 2 ms x 5
+    assert env.model.opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    assert env.model.opt.timestep == (0.005 if muscle else 0.002)
     assert math.isclose(env.model.opt.timestep * env._n_substeps, 0.01) and math.isclose(env.info.dt, 0.01)
 
 

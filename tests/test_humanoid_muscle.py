@@ -7,6 +7,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from loco_mujoco.datasets.sources.fetch import default_sources_root
 from loco_mujoco.environments.humanoid_muscle import HumanoidMuscle
 from loco_mujoco.models import myo_human
 
@@ -92,9 +93,31 @@ def test_env_resets_and_steps_with_finite_observations(env):
             obs = env.reset()
 
 
+def test_default_integration_is_implicitfast_at_5_ms_with_the_coarse_step_settings(env, model):
+    """The environment applies myo_human.apply_coarse_step_settings; myo_human's own model keeps myo-sim's values."""
+    m = env.model
+    assert m.opt.timestep == 0.005 and env._n_substeps == 2
+    assert m.opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    assert m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_ISLAND
+    assert np.all(m.actuator_actearly) and not np.any(model.actuator_actearly)
+    for side in myo_human.SIDES:
+        for joint, armature in myo_human.SLAVED_TRANSLATION_ARMATURE.items():
+            assert m.dof_armature[m.joint(f"{joint}_{side}").dofadr[0]] == armature
+            assert model.dof_armature[model.joint(f"{joint}_{side}").dofadr[0]] == 0.01  # myo-sim's
+    coupled = [m.joint(j).id for j in myo_human.COUPLED_JOINTS]
+    primary = [m.joint(j).id for j in myo_human.LEG_JOINTS]
+    assert not np.any(m.jnt_limited[coupled]) and np.all(m.jnt_limited[primary])
+    assert np.all(model.jnt_limited[[model.joint(j).id for j in myo_human.COUPLED_JOINTS]])
+    # restore_myo_sim_settings (for fine-step references) gives myo-sim's numerical settings back
+    restored = HumanoidMuscle(task="walk", reward_type="none").model
+    myo_human.restore_myo_sim_settings(restored)
+    np.testing.assert_array_equal(restored.dof_armature, model.dof_armature)
+    np.testing.assert_array_equal(restored.jnt_limited, model.jnt_limited)
+    assert not np.any(restored.actuator_actearly)
+    assert not restored.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_ISLAND
+
+
 def test_random_excitation_does_not_diverge_at_the_default_timestep(env):
-    assert env.model.opt.timestep == 0.0025 and env._n_substeps == 4
-    assert env.model.opt.integrator == mujoco.mjtIntegrator.mjINT_EULER
     rng = np.random.default_rng(1)
     env.reset()
     falls = 0
@@ -105,6 +128,90 @@ def test_random_excitation_does_not_diverge_at_the_default_timestep(env):
             falls += 1
             env.reset()
     assert falls > 0  # random excitation does not keep a human upright: resets were exercised
+
+
+def _hinge_dofs(m):
+    return np.array([m.jnt_dofadr[j] for j in range(m.njnt) if m.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE])
+
+
+def test_bang_bang_excitation_keeps_hinge_speeds_within_25_rad_s(env):
+    """Every muscle fully relaxed or fully excited at random, a new draw each control step, a reset after each fall:
+    no hinge joint moves faster than 25 rad/s in the states env.step returns. Explicit Euler at 5 ms reaches ~135 rad/s
+    here (the muscles' force-velocity damping on the light foot), implicitfast without the coarse-step settings ~37.
+
+    The same 10,000 control steps as ``bench/timestep_study.py --bang-bang`` (seed 0), which also prints the speeds
+    inside the control steps; ~3 s.
+    """
+    hinges = _hinge_dofs(env.model)
+    rng = np.random.default_rng(0)
+    env.reset()
+    worst, falls = 0.0, 0
+    for _ in range(10_000):
+        _, _, absorbing, info = env.step(rng.choice([-1.0, 1.0], NU))
+        assert not info["physics_diverged"]
+        worst = max(worst, float(np.abs(env.data.qvel[hinges]).max()))
+        if absorbing:
+            falls += 1
+            env.reset()
+    assert worst <= 25.0, f"largest hinge speed {worst:.1f} rad/s under bang-bang excitation"
+    assert falls > 50  # many restarts from rest (all activations zero), where the excitation jumps are largest
+
+
+def _floor_contacts(m, d, feet):
+    """(foot body, penetration depth) of each contact between a foot geom and the floor."""
+    floor = m.geom(myo_human.FLOOR).id
+    out = []
+    for k in range(d.ncon):
+        g1, g2 = d.contact.geom1[k], d.contact.geom2[k]
+        if floor in (g1, g2):
+            body = int(m.geom_bodyid[g2 if g1 == floor else g1])
+            if body in feet:
+                out.append((body, -float(d.contact.dist[k])))
+    return out
+
+
+def test_floor_contact_stays_stable_in_quiet_stance(env):
+    """From the home pose with 10 % co-contraction, over the first 0.2 s (before the body, which 10 % cannot hold,
+    starts to sag): both feet keep touching the floor at every step and no sole sinks more than 5 mm into it."""
+    m, d = env.model, env.data
+    env.reset()
+    for _ in range(20):
+        _, _, absorbing, _ = env.step(np.full(NU, -0.8))
+        assert not absorbing
+        contacts = _floor_contacts(m, d, {m.body(b).id for b in myo_human.FOOT_BODIES})
+        touching = {m.body(b).name[-1] for b, _ in contacts}
+        assert touching == {"l", "r"}, f"feet on the floor: {sorted(touching)}"
+        assert max(depth for _, depth in contacts) < 0.005
+
+
+@pytest.mark.skipif(default_sources_root() is None, reason="needs ../shared/mocap or LOCO_MUJOCO_SOURCES")
+def test_expert_states_are_reachable_and_followed_like_the_fine_step_reference(make_env):
+    """Resetting onto the walking dataset's states reproduces them, and 0.1 s from each (10 % excitation) the default
+    integration stays close to myo-sim's own model at 0.25 ms: on average within 0.03 rad and 4 mm (measured 0.016 rad
+    and 0.9 mm; explicit Euler at 2.5 ms, the previous default: ~0.006 rad and 0.3 mm), never diverging or exceeding
+    25 rad/s."""
+    env = make_env("HumanoidMuscle.walk")
+    states = env.create_dataset()["states"]
+    reference = HumanoidMuscle(task="walk", reward_type="none", timestep=0.00025, n_substeps=40)
+    myo_human.restore_myo_sim_settings(reference.model)
+    hinges = _hinge_dofs(env.model)
+    mask = env.get_kinematic_obs_mask()
+    joint_err, height_err = [], []
+    for frame in np.linspace(0, len(states) - 1, 12).astype(int):
+        paths = []
+        for e in (env, reference):
+            obs = e.reset(states[frame])
+            np.testing.assert_allclose(obs[mask], states[frame][mask])
+            path = []
+            for _ in range(10):
+                _, _, _, info = e.step(np.full(NU, -0.8))
+                assert not info["physics_diverged"]
+                path.append(e.data.qpos.copy())
+            paths.append(np.array(path))
+        assert np.abs(env.data.qvel[hinges]).max() <= 25.0
+        joint_err.append(np.sqrt(np.mean((paths[0][:, 7:] - paths[1][:, 7:]) ** 2)))
+        height_err.append(np.sqrt(np.mean((paths[0][:, 2] - paths[1][:, 2]) ** 2)))
+    assert np.mean(joint_err) < 0.03 and np.mean(height_err) < 0.004, (np.mean(joint_err), np.mean(height_err))
 
 
 def test_actions_minus_one_and_plus_one_are_zero_and_full_excitation(env):

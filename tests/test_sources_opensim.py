@@ -1,9 +1,12 @@
 """OpenSim .mot/.sto/.trc parsing on the shared recordings and on deliberately broken copies."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from loco_mujoco.datasets.human_gait import SIDES, HumanGait, gait_from_motion, marker_joint_centres
 from loco_mujoco.datasets.motion import MotionFormatError
 from loco_mujoco.datasets.sources.fetch import SOURCE_FILES, default_sources_root
 from loco_mujoco.datasets.sources.opensim import load_opensim, load_trc
@@ -152,3 +155,68 @@ def test_broken_trc(tmp_path, kind):
     with pytest.raises(MotionFormatError) as err:
         load_trc(path)
     assert str(path) in str(err.value) and BROKEN_TRC[kind] in str(err.value)
+
+
+# --- .trc markers to anatomical gait (joint centres from markers, then the keypoint angle path) ---
+
+@pytest.mark.parametrize("relpath", TRC)
+def test_trc_gait_has_plausible_walking_angles(relpath):
+    gait = gait_from_motion(load_trc(shared(relpath)), 100.0)
+    assert isinstance(gait, HumanGait) and gait.duration == pytest.approx(1.2, abs=0.05)
+    assert 0.9 < gait.leg_length < 1.1 and 0.9 < np.median(gait.pelvis_pos[:, 2]) < 1.05
+    for side in SIDES:
+        a = {k: np.degrees(v) for k, v in gait.angles[side].items()}
+        assert -25 < a["hip_flexion"].min() < -10 and 15 < a["hip_flexion"].max() < 35
+        assert -5 < a["knee_flexion"].min() < 8 and 55 < a["knee_flexion"].max() < 75
+        assert np.abs(a["ankle_dorsiflexion"]).max() < 25 and np.ptp(a["ankle_dorsiflexion"]) > 15
+        assert np.abs(a["hip_adduction"]).max() < 12
+    # the legs alternate: one thigh swings forward while the other goes back
+    assert np.corrcoef(gait.angles["l"]["hip_flexion"], gait.angles["r"]["hip_flexion"])[0, 1] < -0.7
+
+
+def test_trc_gait_matches_ik_of_the_same_trial():
+    """walk_free_01 (3.07-4.27 s of subject01_walk1.trc) overlaps the IK solution subject01_walk1_ik.mot (0.5-4 s)."""
+    trc = load_trc(shared("opensim/walk_free_01.trc"))
+    mot = load_opensim(shared("opensim/subject01_walk1_ik.mot"))
+    g_trc, g_mot = gait_from_motion(trc, 100.0), gait_from_motion(mot, 100.0)
+    t_trc = trc.time[0] + np.arange(g_trc.n_frames) / 100.0
+    t_mot = mot.time[0] + np.arange(g_mot.n_frames) / 100.0
+    t = t_trc[t_trc <= t_mot[-1]]
+    assert len(t) > 80
+    for side in SIDES:
+        for angle, rms_max in (("hip_flexion", 6.0), ("knee_flexion", 5.0), ("ankle_dorsiflexion", 6.0)):
+            a = np.degrees(np.interp(t, t_trc, g_trc.angles[side][angle]))
+            b = np.degrees(np.interp(t, t_mot, g_mot.angles[side][angle]))
+            assert np.sqrt(np.mean((a - b) ** 2)) < rms_max, (side, angle)
+            assert np.corrcoef(a, b)[0, 1] > (0.7 if angle == "ankle_dorsiflexion" else 0.98), (side, angle)
+
+
+def test_trc_joint_centres_are_anatomical():
+    centres = marker_joint_centres(load_trc(shared("opensim/walk_free_02.trc")))
+    hip_width = np.linalg.norm(centres["l_hip"] - centres["r_hip"], axis=1)
+    assert 0.15 < hip_width.mean() < 0.22  # Harrington: 0.66 x inter-ASIS width + 15 mm
+    for side in SIDES:
+        thigh = np.linalg.norm(centres[f"{side}_knee"] - centres[f"{side}_hip"], axis=1)
+        shank = np.linalg.norm(centres[f"{side}_ankle"] - centres[f"{side}_knee"], axis=1)
+        assert 0.38 < thigh.mean() < 0.52 and np.ptp(thigh) < 0.04  # a rigid segment despite skin motion
+        assert 0.38 < shank.mean() < 0.52 and np.ptp(shank) < 0.04
+        assert 0.05 < np.quantile(centres[f"{side}_ankle"][:, 2], 0.1) < 0.1
+
+
+def test_trc_missing_marker_names_marker_and_file(tmp_path):
+    lines = shared("opensim/walk_free_01.trc").read_text().splitlines()
+    lines[3] = lines[3].replace("R.Shank.Front", "R.Shank.Front2")
+    path = tmp_path / "no_shank_front.trc"
+    path.write_text("\n".join(lines) + "\n")
+    motion = load_trc(path)  # the file itself is well formed
+    with pytest.raises(MotionFormatError) as err:
+        gait_from_motion(motion)
+    assert str(path) in str(err.value) and "'R.Shank.Front'" in str(err.value)
+
+
+def test_trc_without_knee_motion_cannot_locate_the_knee():
+    motion = load_trc(shared("opensim/walk_free_01.trc"))
+    frozen = {k: np.repeat(v[:1], motion.n_frames, axis=0) for k, v in motion.keypoints.items()}
+    still = replace(motion, keypoints=frozen)  # a static trial
+    with pytest.raises(MotionFormatError, match="right knee: too little knee motion"):
+        gait_from_motion(still)

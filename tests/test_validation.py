@@ -207,7 +207,7 @@ def test_fuzz_entry_points_fail_with_our_errors_naming_the_input(tmp_path):
         blob = rng.bytes(int(rng.integers(0, 4000)))
         path = tmp_path / f"blob{i}"
         path.write_bytes(blob if i % 4 else b"PK\x03\x04" + blob)  # some look like zip archives
-        for read in (lambda p: load_any_dataset(lm.UnitreeH1, p), load_checkpoint):
+        for read in (lambda p: load_any_dataset(lm.UnitreeH1.dataset_subject(), p), load_checkpoint):
             with pytest.raises(ValueError) as info:
                 read(path)
             assert str(path) in str(info.value)

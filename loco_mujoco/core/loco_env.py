@@ -14,7 +14,7 @@ import warnings
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import mujoco
 import numpy as np
@@ -25,14 +25,23 @@ from mushroom_rl.utils.spaces import Box
 from loco_mujoco._compat import MuJoCo
 from loco_mujoco.core import parameters
 from loco_mujoco.core import rewards as rw
+from loco_mujoco.core.embodiment_model import (
+    LOAD_BODY,
+    EmbodimentModelMixin,
+    ModelChoice,
+    box_inertia,
+    qpos_in_layout,
+)
 from loco_mujoco.core.task_names import DATASET_TYPES, DEFAULT_DATASET_TYPE, parse_task_name, register_environment
 from loco_mujoco.core.trajectory_api import TrajectoryMixin
+from loco_mujoco.datasets.subject import DatasetSubject, RetargetTarget
 from loco_mujoco.models import spec_edit
 
+if TYPE_CHECKING:
+    from loco_mujoco.datasets.retarget import HumanoidRetarget, QuadrupedRetarget
+
 OBSERVATION_GROUPS = ("positions", "velocities", "foot_forces", "weight", "env_type", "goal")
-LOAD_BODY = "carried_load"
 LOAD_MASSES = (0.1, 1.0, 5.0, 10.0)  # kg, one drawn per episode unless weight_mass= fixes it
-LOAD_HALF_SIZE = (0.1, 0.15, 0.1)  # m: a box held in front of the chest
 
 # Simulation defaults, chosen by bench/timestep_study.py (see BENCHMARKS.md): implicit-in-velocity
 # integration at 2 ms is as stable as 1 ms with 10 substeps on every robot here and twice as fast.
@@ -59,17 +68,11 @@ def _sum_is_finite(x: np.ndarray) -> bool:
     return total == total and total not in (math.inf, -math.inf)
 
 
-def _box_inertia(mass: float) -> np.ndarray:
-    """Principal inertia of a solid box of ``mass`` with half sizes ``LOAD_HALF_SIZE``."""
-    x, y, z = LOAD_HALF_SIZE
-    return mass / 3.0 * np.array([y * y + z * z, x * x + z * z, x * x + y * y])
-
-
 class PhysicsDivergedWarning(RuntimeWarning):
     """The simulation produced non-finite values; the episode was terminated."""
 
 
-class LocoEnv(TrajectoryMixin, MuJoCo):
+class LocoEnv(TrajectoryMixin, EmbodimentModelMixin, MuJoCo):
     """Base class of all locomotion environments. Build one with ``LocoEnv.make("UnitreeH1.walk")``."""
 
     # ---- declared by each embodiment -------------------------------------------------------------
@@ -90,6 +93,9 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
     TIMESTEP: ClassVar[float] = DEFAULT_TIMESTEP
     N_SUBSTEPS: ClassVar[int] = DEFAULT_N_SUBSTEPS
     INTEGRATOR: ClassVar[int] = DEFAULT_INTEGRATOR
+    RETARGET: ClassVar[HumanoidRetarget | QuadrupedRetarget | None] = None  # how motion maps on: real datasets
+    OLD_FORMAT_JOINTS: ClassVar[Mapping[str, str]] = {}  # original LocoMuJoCo joint names -> ours, for its files
+    SIZES: ClassVar[tuple[str, ...]] = ()  # body sizes (modes) whose datasets mode "all" joins
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -150,13 +156,7 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
             horizon=horizon, gamma=gamma, seed=seed, random_start=random_start, init_step_no=init_step_no,
             dataset_variant=dataset_variant, dataset_path=dataset_path, weight_mass=weight_mass,
             domain_randomization_config=domain_randomization_config, use_foot_forces=use_foot_forces))
-        task = task if task is not None else next(iter(self.TASKS))
-        self._validate_choice("task", task, tuple(self.TASKS))
-        if self.MODES:
-            mode = mode if mode is not None else self.MODES[0]
-            self._validate_choice("mode", mode, self.MODES)
-        elif mode is not None:
-            raise ValueError(f"{type(self).__name__} has no modes, got mode={mode!r}")
+        task, mode = self.resolve_task_mode(task, mode)
         self._validate_choice("dataset_type", dataset_type, self.DATASET_TYPES)
         if dataset_type != DEFAULT_DATASET_TYPE and dataset_path is None:  # agent data: its settings travel with it
             settings = self._agent_dataset_settings(task, mode, dataset_type, {
@@ -183,7 +183,7 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         self.control = control
         self.disable_arms = disable_arms
         self.task = self.TASKS[task]
-        self.has_load = task == "carry" and self.CARRY_BODY is not None
+        self.has_load = self.carries_load(task)
         if weight_mass is not None:
             if not self.has_load:
                 raise ValueError(f"weight_mass is only for carry tasks; {type(self).__name__}.{task} carries nothing")
@@ -194,9 +194,7 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         self._rng = np.random.default_rng(seed)
         self._init_trajectories(random_start, init_step_no, dataset_variant, dataset_path)
 
-        spec = self.build_spec(control=control, disable_arms=disable_arms)
-        spec.option.integrator = self.INTEGRATOR
-        model = spec.compile()
+        model = self.compile_spec(self.build_spec(control=control, disable_arms=disable_arms))
         joint_names = [model.joint(j).name for j in range(model.njnt)]
         observation_spec = [(f"q_{n}", n, ObservationType.JOINT_POS) for n in joint_names]
         observation_spec += [(f"dq_{n}", n, ObservationType.JOINT_VEL) for n in joint_names]
@@ -233,6 +231,34 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
 
     # ---- construction ---------------------------------------------------------------------------
     @classmethod
+    def resolve_task_mode(cls, task: str | None, mode: str | None) -> tuple[str, str | None]:
+        """``task`` and ``mode`` checked against ``TASKS`` and ``MODES``; None gives the first of each."""
+        task = task if task is not None else next(iter(cls.TASKS))
+        cls._validate_choice("task", task, tuple(cls.TASKS))
+        if cls.MODES:
+            mode = mode if mode is not None else cls.MODES[0]
+            cls._validate_choice("mode", mode, cls.MODES)
+        elif mode is not None:
+            raise ValueError(f"{cls.__name__} has no modes, got mode={mode!r}")
+        return task, mode
+
+    @classmethod
+    def dataset_subject(cls) -> DatasetSubject:
+        """This embodiment as the datasets layer sees it: name, tasks, sizes, retargeting spec and model builder."""
+        return DatasetSubject(name=cls.__name__, tasks=tuple(cls.TASKS), retarget=cls.RETARGET,
+                              target=cls.retarget_target, sizes=tuple(cls.SIZES),
+                              old_format_joints=dict(cls.OLD_FORMAT_JOINTS))
+
+    @classmethod
+    def retarget_target(cls, task: str | None = None, mode: str | None = None) -> RetargetTarget:
+        """The model that motion of ``task`` (and ``mode``) is retargeted onto: the full model (arms free, the carry
+        load included) in the default control mode, and its home pose. Builds no environment."""
+        task, mode = cls.resolve_task_mode(task, mode)
+        model, home = cls.compile_model(ModelChoice(task, mode, cls.DEFAULT_CONTROL, disable_arms=False))
+        label = ".".join([cls.__name__, task] + ([mode] if mode else []))
+        return RetargetTarget(label, model, home, cls.RETARGET)
+
+    @classmethod
     def dataset_types_with_data(cls, task: str, mode: str | None = None) -> tuple[str, ...]:
         """The dataset types of ``task`` that have data: ``real`` where a recipe exists, agent data where shipped."""
         from loco_mujoco.agent_datasets import agent_recipe
@@ -240,7 +266,7 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
 
         types = []
         try:
-            if variants(cls, task):
+            if variants(cls.dataset_subject(), task):
                 types.append(DEFAULT_DATASET_TYPE)
         except DatasetUnavailableError:
             pass
@@ -285,67 +311,17 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
                             **kwargs)
 
     def build_spec(self, control: str, disable_arms: bool) -> mujoco.MjSpec:
-        """The robot's MjSpec with the root named, arms handled, collisions filtered, control mode set."""
-        spec = self.load_spec()
-        spec_edit.name_free_joint(spec)
-        self._home_by_joint = spec_edit.keyframe_qpos(spec, self.HOME_KEY)
-        fixed = self.fixed_joints(spec, disable_arms)
-        spec_edit.fix_joints(spec, fixed, {j: float(self._home_by_joint[j][0]) for j in fixed})
-        if self.LEG_ROOTS is not None:
-            spec_edit.filter_self_collisions(spec, *self.LEG_ROOTS)
-        if self.has_load:
-            self._add_load(spec)
-        if self.use_foot_forces:
-            for foot in self.foot_bodies():
-                spec.add_sensor(name=f"foot_force_{foot}", type=mujoco.mjtSensor.mjSENS_CONTACT,
-                                objtype=mujoco.mjtObj.mjOBJ_XBODY, objname=foot, reftype=mujoco.mjtObj.mjOBJ_GEOM,
-                                refname="floor", intprm=[2, 3, 1])  # data: force; reduce: net force; 1 slot
-        if control == "torque":
-            spec_edit.to_torque_control(spec)
-        else:
-            spec_edit.to_position_control(spec, self.pd_gains(spec))
+        """This environment's MjSpec: its ``load_spec`` through ``assemble_spec``; remembers the home pose."""
+        spec, self._home_by_joint = self.assemble_spec(self.load_spec(), self._model_choice(control, disable_arms))
         return spec
 
-    def load_spec(self) -> mujoco.MjSpec:
-        """The unmodified robot model in a scene with a floor named ``floor``."""
-        raise NotImplementedError
-
-    def foot_bodies(self) -> tuple[str, ...]:
-        """Bodies whose subtrees are the feet (for foot forces): those of the retargeting spec."""
-        spec = getattr(self, "RETARGET", None)
-        if spec is None:
-            raise ValueError(f"{type(self).__name__} does not declare its feet; use_foot_forces is unavailable")
-        if hasattr(spec, "legs"):
-            return tuple(spec.legs[side].foot_body for side in sorted(spec.legs))
-        return tuple(spec.feet)
-
-    def _add_load(self, spec: mujoco.MjSpec) -> None:
-        """A box of 1 kg (re-massed every episode) welded in front of ``CARRY_BODY``: the carried load."""
-        parent = spec.body(self.CARRY_BODY)
-        if parent is None:
-            raise ValueError(f"{type(self).__name__}.CARRY_BODY {self.CARRY_BODY!r} is not a body of the model")
-        load = parent.add_body(name=LOAD_BODY, pos=list(self.CARRY_OFFSET))
-        load.explicitinertial = True
-        load.mass = 1.0
-        load.inertia = _box_inertia(1.0)
-        load.add_geom(name=LOAD_BODY, type=mujoco.mjtGeom.mjGEOM_BOX, size=list(LOAD_HALF_SIZE),
-                      contype=0, conaffinity=0, rgba=[0.6, 0.45, 0.25, 1.0])
-
-    def fixed_joints(self, spec: mujoco.MjSpec, disable_arms: bool) -> list[str]:
-        """Joints removed from the model; by default the arm joints when arms are disabled."""
-        return [j for j in self.ARM_JOINTS if spec.joint(j) is not None] if disable_arms else []
-
-    def pd_gains(self, spec: mujoco.MjSpec) -> dict[str, tuple[float, float]]:
-        """PD gains per actuated joint. Default: peak torque at 0.25 rad error (kp = 4 x peak), kd = kp / 25."""
-        gains = {}
-        for act in spec.actuators:
-            kp = 4.0 * float(np.max(np.abs(spec_edit.torque_range(spec, act))))
-            gains[act.target] = (kp, kp / 25.0)
-        return gains
+    def _model_choice(self, control: str, disable_arms: bool) -> ModelChoice:
+        """What this environment's model depends on; embodiments with model switches add them as options."""
+        return ModelChoice(self.task_name, self.mode, control, disable_arms, self.use_foot_forces)
 
     def home_qpos(self, model: mujoco.MjModel) -> np.ndarray:
         """The home pose (from the model's keyframe) in ``model``'s qpos layout."""
-        return np.concatenate([self._home_by_joint[model.joint(j).name] for j in range(model.njnt)])
+        return qpos_in_layout(self._home_by_joint, model)
 
     @staticmethod
     def load_model(xml_file: Any) -> mujoco.MjModel:
@@ -602,7 +578,7 @@ class LocoEnv(TrajectoryMixin, MuJoCo):
         """Give the carried load ``mass`` kg (a box, inertia to match) and show it in the observation."""
         b = self._model.body(LOAD_BODY).id
         self._model.body_mass[b] = mass
-        self._model.body_inertia[b] = _box_inertia(mass)
+        self._model.body_inertia[b] = box_inertia(mass)
         self._extra[self._obs_idx["weight"] - self._extra_offset] = mass
         self.current_load_mass = float(mass)
         if update:

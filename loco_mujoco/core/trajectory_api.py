@@ -13,7 +13,8 @@ from loco_mujoco.datasets.trajectory import TrajectoryDataset
 
 
 class TrajectoryMixin:
-    """Mixed into :class:`LocoEnv`; relies on its model, data, observation index arrays and RNG."""
+    """Mixed into :class:`LocoEnv`; relies on its model, data, observation index arrays, RNG and
+    ``dataset_subject()`` (the embodiment as the datasets layer sees it)."""
 
     def _init_trajectories(self, random_start: bool, init_step_no: int | None, dataset_variant: str | None,
                            dataset_path: str | Path | None) -> None:
@@ -40,10 +41,20 @@ class TrajectoryMixin:
         if self._dataset is None:
             if self.dataset_path is not None:
                 from loco_mujoco.datasets.loco_format import load_any_dataset
-                self._dataset = load_any_dataset(type(self), self.dataset_path)
+                self._dataset = load_any_dataset(self.dataset_subject(), self.dataset_path)
             elif self.dataset_type == "real":
-                from loco_mujoco.datasets.registry import load_dataset
-                self._dataset = load_dataset(type(self), self.task_name, self.dataset_variant, mode=self.mode)
+                from loco_mujoco.datasets.registry import load_dataset, resolve_variant, variants
+
+                subject = self.dataset_subject()
+                variant = resolve_variant(subject, self.task_name, self.dataset_variant)
+                if variants(subject, self.task_name)[variant].generator == "controller":
+                    # simulated by our quadruped controller, which sits above the environments
+                    from loco_mujoco.controllers.datasets import controller_dataset_path
+
+                    path = controller_dataset_path(f"{subject.name}.{self.task_name}")
+                    self._dataset = TrajectoryDataset.load(path)
+                else:
+                    self._dataset = load_dataset(subject, self.task_name, variant, mode=self.mode)
             else:  # perfect / preference: rolled out by our agents, built into the cache on first use
                 from loco_mujoco.agent_datasets import agent_dataset_path
 

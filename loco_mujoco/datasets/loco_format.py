@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import zipfile
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -12,14 +11,13 @@ from loco_mujoco.datasets.motion import MotionFormatError
 from loco_mujoco.datasets.resample import resample_angles, resample_quat
 from loco_mujoco.datasets.retarget import velocities
 from loco_mujoco.datasets.sources.loco_npz import OLD_ROOT_OFFSET, load_loco_npz
+from loco_mujoco.datasets.subject import DatasetSubject, HasDatasetSubject, as_subject
 from loco_mujoco.datasets.trajectory import FORMAT, TrajectoryDataset
 
-if TYPE_CHECKING:
-    from loco_mujoco.core.loco_env import LocoEnv
 
-
-def load_any_dataset(env_cls: type[LocoEnv], path: str | Path, frequency: float = 100.0) -> TrajectoryDataset:
-    """A dataset file of ours, or an original LocoMuJoCo ``.npz`` converted onto ``env_cls``'s full model."""
+def load_any_dataset(subject: DatasetSubject | HasDatasetSubject, path: str | Path,
+                     frequency: float = 100.0) -> TrajectoryDataset:
+    """A dataset file of ours, or an original LocoMuJoCo ``.npz`` converted onto ``subject``'s full model."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"dataset file {path} {'is a folder' if path.is_dir() else 'does not exist'}; "
@@ -30,19 +28,20 @@ def load_any_dataset(env_cls: type[LocoEnv], path: str | Path, frequency: float 
     except (ValueError, OSError, EOFError, zipfile.BadZipFile) as err:  # not an .npz, pickled, truncated
         raise MotionFormatError(path, f"not a dataset file: expected an .npz of ours or of the original "
                                       f"LocoMuJoCo ({type(err).__name__}: {str(err)[:120]})") from None
-    return TrajectoryDataset.load(path) if ours else convert_loco_npz(env_cls, path, frequency)
+    return TrajectoryDataset.load(path) if ours else convert_loco_npz(subject, path, frequency)
 
 
-def convert_loco_npz(env_cls: type[LocoEnv], path: str | Path, frequency: float = 100.0) -> TrajectoryDataset:
-    """Map an original-format file's joints onto ours by ``env_cls.OLD_FORMAT_JOINTS`` and resample it."""
-    old_names = getattr(env_cls, "OLD_FORMAT_JOINTS", None)
+def convert_loco_npz(subject: DatasetSubject | HasDatasetSubject, path: str | Path,
+                     frequency: float = 100.0) -> TrajectoryDataset:
+    """Map an original-format file's joints onto ours by ``subject.old_format_joints`` and resample it onto the
+    full model of its first task (built without an environment)."""
+    subject = as_subject(subject)
+    old_names = subject.old_format_joints
     if not old_names:
-        raise ValueError(f"{env_cls.__name__} has no mapping from the original LocoMuJoCo joint names")
-    motion = load_loco_npz(path, root_offset=OLD_ROOT_OFFSET[env_cls.__name__])
-    env = env_cls(disable_arms=False, control="torque", reward_type="none")
-    model = env.model
-    base = env.home_qpos(model)
-    env.stop()
+        raise ValueError(f"{subject.name} has no mapping from the original LocoMuJoCo joint names")
+    motion = load_loco_npz(path, root_offset=OLD_ROOT_OFFSET[subject.name])
+    target = subject.target(subject.tasks[0], None)
+    model, base = target.model, target.home_qpos
     splits = np.asarray(motion.meta.get("split_points", [0, motion.n_frames]), dtype=int)
     if splits[0] != 0 or splits[-1] != motion.n_frames:
         splits = np.concatenate([[0], splits[(splits > 0) & (splits < motion.n_frames)], [motion.n_frames]])
@@ -60,7 +59,7 @@ def convert_loco_npz(env_cls: type[LocoEnv], path: str | Path, frequency: float 
         qpos_parts.append(q)
         qvel_parts.append(velocities(model, q, frequency))
         lengths.append(len(q))
-    metadata = {"env": env_cls.__name__, "task": None, "dataset_type": "real", "variant": "file",
+    metadata = {"env": subject.name, "task": None, "dataset_type": "real", "variant": "file",
                 "frequency": frequency, "source_file": str(path), "format": "loco-mujoco-npz",
                 "mean_forward_speed": float(np.mean(np.concatenate(qvel_parts)[:, 0])),
                 "mean_speed": float(np.mean(np.linalg.norm(np.concatenate(qvel_parts)[:, :2], axis=1))),

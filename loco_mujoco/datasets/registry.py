@@ -6,7 +6,6 @@ import hashlib
 import json
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 from tqdm import tqdm
@@ -21,14 +20,15 @@ from loco_mujoco.datasets.retarget import (
     retarget_quadruped,
 )
 from loco_mujoco.datasets.sources.fetch import cache_dir
+from loco_mujoco.datasets.subject import DatasetSubject, HasDatasetSubject, RetargetTarget, as_subject
 from loco_mujoco.datasets.trajectory import TrajectoryDataset
 from loco_mujoco.rotations import axis_angle_quat, quat_mul
 
-if TYPE_CHECKING:
-    from loco_mujoco.core.loco_env import LocoEnv
+# An embodiment: its DatasetSubject, or anything that gives one (an environment class), see ``as_subject``.
+Subject = DatasetSubject | HasDatasetSubject
 
 # Bump when the retargeting changes: cached datasets built by older code are then rebuilt.
-BUILD_VERSION = 5
+BUILD_VERSION = 6
 FREQUENCY = 100.0
 
 
@@ -47,15 +47,25 @@ class Clip:
 
 @dataclass(frozen=True)
 class Recipe:
-    """The clips that make a task's dataset, and whether to add their left/right mirror images."""
+    """The clips that make a task's dataset, and whether to add their left/right mirror images.
+
+    A recipe with a ``generator`` has no clips: its data is simulated by code above the environments (the
+    quadruped controller, :mod:`loco_mujoco.controllers`), which the datasets layer never runs.
+    """
 
     clips: tuple[Clip, ...]
     mirror: bool = False
+    generator: str | None = None
+
+
+class GeneratedDatasetError(DatasetUnavailableError):
+    """The variant is simulated above the datasets layer (see ``Recipe.generator``), not built from clips."""
 
 
 _WALK = (Clip("deepmimic/humanoid3d_long_walk1.txt"), Clip("deepmimic/humanoid3d_long_walk2.txt"),
          Clip("deepmimic/humanoid3d_long_walk3.txt"), Clip("deepmimic/humanoid3d_walk.txt"),
-         Clip("opensim/subject01_walk1_ik.mot"), Clip("cmu/07_02.bvh"), Clip("cmu/08_03.bvh"))
+         Clip("opensim/subject01_walk1_ik.mot"), Clip("cmu/07_02.bvh"), Clip("cmu/08_03.bvh"),
+         *(Clip(f"opensim/walk_free_0{i}.trc") for i in (1, 2, 3)))
 _RUN = (Clip("opensim/subject02_running_arms_ik.mot"), Clip("deepmimic/humanoid3d_run.txt"),
         Clip("deepmimic/humanoid3d_jog.txt"), *(Clip(f"cmu/{c}.bvh") for c in
                                                 ("09_01", "09_03", "09_04", "09_07", "09_08", "16_35", "16_36",
@@ -71,39 +81,45 @@ RECIPES: dict[str, dict[str, dict[str, Recipe]]] = {
         "run": {"permissive": Recipe(_RUN), "noncommercial": Recipe(_RUN + _SIE_RUNS)},
         "carry": {"permissive": Recipe((Clip("cmu/70_02.bvh"), Clip("cmu/70_13.bvh")) + _WALK)},
     },
-    "quadruped": {
-        "simple": {"noncommercial": Recipe(tuple(Clip(f"{_A1}{c}.txt") for c in
+    "quadruped": {  # permissive: rollouts of our trotting controller (loco_mujoco/controllers), with actions
+        "simple": {"permissive": Recipe((), generator="controller"),
+                   "noncommercial": Recipe(tuple(Clip(f"{_A1}{c}.txt") for c in
                                                  ("trot0", "trot1", "trot2", "pace0", "pace1", "pace2")))},
-        "hard": {"noncommercial": Recipe(tuple(Clip(f"{_A1}{c}.txt") for c in
+        "hard": {"permissive": Recipe((), generator="controller"),
+                 "noncommercial": Recipe(tuple(Clip(f"{_A1}{c}.txt") for c in
                                                ("left_turn0", "left_turn1", "right_turn0", "right_turn1")))},
     },
 }
 
 
-def dataset_kind(env_cls: type[LocoEnv]) -> str:
-    spec = getattr(env_cls, "RETARGET", None)
-    if isinstance(spec, HumanoidRetarget):
+def dataset_kind(subject: Subject) -> str:
+    """``human`` or ``quadruped``: which recipes apply, by the kind of the embodiment's retargeting spec."""
+    subject = as_subject(subject)
+    if isinstance(subject.retarget, HumanoidRetarget):
         return "human"
-    if isinstance(spec, QuadrupedRetarget):
+    if isinstance(subject.retarget, QuadrupedRetarget):
         return "quadruped"
-    raise DatasetUnavailableError(f"{env_cls.__name__} has no retargeting spec, so no real datasets")
+    raise DatasetUnavailableError(f"{subject.name} has no retargeting spec, so no real datasets")
 
 
-def variants(env_cls: type[LocoEnv], task: str) -> dict[str, Recipe]:
+def variants(subject: Subject, task: str) -> dict[str, Recipe]:
     """The dataset variants of a task, preferred first (permissive before non-commercial)."""
-    recipes = RECIPES[dataset_kind(env_cls)]
+    subject = as_subject(subject)
+    recipes = RECIPES[dataset_kind(subject)]
     if task not in recipes:
-        raise DatasetUnavailableError(f"{env_cls.__name__}.{task} has no real dataset; tasks with one: "
-                                      f"{sorted(t for t in recipes if t in env_cls.TASKS)}")
+        raise DatasetUnavailableError(f"{subject.name}.{task} has no real dataset; tasks with one: "
+                                      f"{sorted(t for t in recipes if t in subject.tasks)}")
     return recipes[task]
 
 
-def resolve_variant(env_cls: type[LocoEnv], task: str, variant: str | None) -> str:
-    options = variants(env_cls, task)
+def resolve_variant(subject: Subject, task: str, variant: str | None) -> str:
+    """``variant``, checked against the task's variants; None gives the preferred one."""
+    subject = as_subject(subject)
+    options = variants(subject, task)
     if variant is None:
         return next(iter(options))
     if variant not in options:
-        raise DatasetUnavailableError(f"{env_cls.__name__}.{task} has no dataset variant {variant!r}; "
+        raise DatasetUnavailableError(f"{subject.name}.{task} has no dataset variant {variant!r}; "
                                       f"variants: {list(options)}")
     return variant
 
@@ -112,19 +128,51 @@ def _load_motion(relpath: str) -> Motion:
     from loco_mujoco.datasets.sources.fetch import source_path
 
     path = source_path(relpath)
-    if path.suffix == ".bvh":
-        from loco_mujoco.datasets.sources.bvh import load_bvh
-        return load_bvh(path)
-    if path.suffix in (".mot", ".sto"):
-        from loco_mujoco.datasets.sources.opensim import load_opensim
-        return load_opensim(path)
     if "a1-retargeted" in relpath:
         from loco_mujoco.datasets.sources.dog import load_a1_json
         return load_a1_json(path)
-    if "deepmimic" in relpath:
+    return load_motion_file(path)
+
+
+MOTION_SUFFIXES = (".bvh", ".mot", ".sto", ".trc", ".txt")
+
+
+def load_motion_file(path: str | Path) -> Motion:
+    """Parse a human motion file by its kind: BVH, OpenSim coordinates (.mot/.sto) or markers (.trc), DeepMimic
+    (.txt; its character file ``humanoid3d.txt`` beside it, else the shared one)."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"motion file {path} {'is a folder' if path.is_dir() else 'does not exist'}")
+    suffix = path.suffix.lower()
+    if suffix == ".bvh":
+        from loco_mujoco.datasets.sources.bvh import load_bvh
+        return load_bvh(path)
+    if suffix in (".mot", ".sto"):
+        from loco_mujoco.datasets.sources.opensim import load_opensim
+        return load_opensim(path)
+    if suffix == ".trc":
+        from loco_mujoco.datasets.sources.opensim import load_trc
+        return load_trc(path)
+    if suffix == ".txt":
         from loco_mujoco.datasets.sources.deepmimic import load_deepmimic
-        return load_deepmimic(path, source_path("deepmimic/humanoid3d.txt"))
-    raise DatasetUnavailableError(f"no parser for source {relpath}")
+        from loco_mujoco.datasets.sources.fetch import source_path
+
+        character = path.with_name("humanoid3d.txt")
+        return load_deepmimic(path, character if character.is_file() else source_path("deepmimic/humanoid3d.txt"))
+    raise DatasetUnavailableError(f"no parser for {path}: motion files are {', '.join(MOTION_SUFFIXES)}")
+
+
+def retarget_file(path: str | Path, target: RetargetTarget, foot_lock: bool = True,
+                  walk: bool | None = None) -> RetargetedMotion:
+    """Retarget one human motion file onto ``target`` at the datasets' frame rate, heading along +x."""
+    if not isinstance(target.spec, HumanoidRetarget):
+        raise DatasetUnavailableError(f"{target.label} is not a humanoid: only human motion files can be "
+                                      "retargeted from a file")
+    gait = gait_from_motion(load_motion_file(path), FREQUENCY)
+    out = retarget_human(gait, target.model, target.spec, target.home_qpos, foot_lock=foot_lock, walk=walk)
+    out.source = str(path)
+    _align_heading(out)
+    return out
 
 
 def _trim(motion: Motion, clip: Clip) -> Motion:
@@ -152,38 +200,44 @@ def _align_heading(traj: RetargetedMotion, seconds: float = 1.0) -> None:
     traj.qpos[:, 3:7] = quat_mul(axis_angle_quat([0.0, 0.0, 1.0], angle), traj.qpos[:, 3:7])
 
 
-def _retarget_env(env_cls: type[LocoEnv], task: str, mode: str | None) -> LocoEnv:
-    return env_cls(task=task, mode=mode, disable_arms=False, reward_type="none")
-
-
-def cache_path(env_cls: type[LocoEnv], task: str, variant: str, mode: str | None = None) -> Path:
+def cache_path(subject: Subject, task: str, variant: str, mode: str | None = None) -> Path:
     """The cache file of a dataset; its name carries a hash of everything that determines its content."""
     from loco_mujoco.datasets.sources.fetch import SOURCE_FILES
 
-    recipe = variants(env_cls, task)[variant]
+    subject = as_subject(subject)
+    recipe = variants(subject, task)[variant]
     key = json.dumps({"version": BUILD_VERSION, "recipe": asdict(recipe), "frequency": FREQUENCY,
                       "sources": [SOURCE_FILES[c.path].sha256 for c in recipe.clips]}, sort_keys=True)
     digest = hashlib.sha256(key.encode()).hexdigest()[:12]
-    name = ".".join([env_cls.__name__, task] + ([mode] if mode else []) + ["real", variant, digest])
+    name = ".".join([subject.name, task] + ([mode] if mode else []) + ["real", variant, digest])
     return cache_dir() / "datasets" / f"{name}.npz"
 
 
-def load_dataset(env_cls: type[LocoEnv], task: str, variant: str | None = None, rebuild: bool = False,
+def _refuse_generated(subject: DatasetSubject, task: str, variant: str) -> None:
+    generator = variants(subject, task)[variant].generator
+    if generator is not None:
+        raise GeneratedDatasetError(f"{subject.name}.{task} [{variant}] is simulated by the {generator}, above the "
+                                    "datasets layer: load it through the environment (LocoEnv.make(...).dataset)")
+
+
+def load_dataset(subject: Subject, task: str, variant: str | None = None, rebuild: bool = False,
                  progress: bool = True, mode: str | None = None) -> TrajectoryDataset:
     """The task's real dataset from the cache, building it first if needed.
 
     For body-size environments, mode ``all`` joins the datasets of every size (each retargeted onto its
     own body) and records each trajectory's size in ``metadata["sizes"]``.
     """
-    variant = resolve_variant(env_cls, task, variant)
-    sizes = getattr(env_cls, "SIZES", None)
+    subject = as_subject(subject)
+    variant = resolve_variant(subject, task, variant)
+    sizes = subject.sizes
     if sizes and mode == "all":
-        parts = [load_dataset(env_cls, task, variant, rebuild, progress, size) for size in sizes]
+        parts = [load_dataset(subject, task, variant, rebuild, progress, size) for size in sizes]
         return join_sizes(parts, sizes)
-    path = cache_path(env_cls, task, variant, mode)
+    _refuse_generated(subject, task, variant)
+    path = cache_path(subject, task, variant, mode)
     if path.exists() and not rebuild:
         return TrajectoryDataset.load(path)
-    dataset = build_dataset(env_cls, task, variant, progress=progress, mode=mode)
+    dataset = build_dataset(subject, task, variant, progress=progress, mode=mode)
     dataset.save(path)
     dataset.source_file = path
     return dataset
@@ -216,18 +270,22 @@ def join_sizes(parts: list[TrajectoryDataset], sizes: tuple[str, ...]) -> Trajec
                              split_points, first.frequency, first.joint_names, metadata)
 
 
-def build_dataset(env_cls: type[LocoEnv], task: str, variant: str | None = None,
+def build_dataset(subject: Subject, task: str, variant: str | None = None,
                   progress: bool = True, mode: str | None = None) -> TrajectoryDataset:
-    """Parse, retarget and concatenate a task's clips into a dataset with provenance and quality figures."""
+    """Parse, retarget and concatenate a task's clips into a dataset with provenance and quality figures.
+
+    The clips are retargeted onto ``subject.target(task, mode)``: the compiled model alone, no environment.
+    """
     from loco_mujoco.datasets.sources.fetch import SOURCE_FILES
 
-    variant = resolve_variant(env_cls, task, variant)
-    recipe = variants(env_cls, task)[variant]
-    env = _retarget_env(env_cls, task, mode)
-    model, base = env.model, env.home_qpos(env.model)
-    spec = env_cls.RETARGET
+    subject = as_subject(subject)
+    variant = resolve_variant(subject, task, variant)
+    _refuse_generated(subject, task, variant)
+    recipe = variants(subject, task)[variant]
+    target = subject.target(task, mode)
+    model, base, spec = target.model, target.home_qpos, target.spec
     trajectories: list[RetargetedMotion] = []
-    label = ".".join([env_cls.__name__, task] + ([mode] if mode else []))
+    label = ".".join([subject.name, task] + ([mode] if mode else []))
     for clip in tqdm(recipe.clips, desc=f"building {label} ({variant})", disable=not progress,
                      unit="clip"):
         motion = _trim(_load_motion(clip.path), clip)
@@ -241,7 +299,6 @@ def build_dataset(env_cls: type[LocoEnv], task: str, variant: str | None = None,
             out.source = clip.path
             _align_heading(out)
             trajectories.append(out)
-    env.stop()
     qpos = np.concatenate([t.qpos for t in trajectories])
     qvel = np.concatenate([t.qvel for t in trajectories])
     splits = np.concatenate([[0], np.cumsum([len(t.qpos) for t in trajectories])])
@@ -254,7 +311,7 @@ def build_dataset(env_cls: type[LocoEnv], task: str, variant: str | None = None,
                         "url": info.url, "sha256": info.sha256})
     commercial = all(s["commercial_use"] for s in sources)
     metadata = {
-        "env": env_cls.__name__, "task": task, "mode": mode, "dataset_type": "real", "variant": variant,
+        "env": subject.name, "task": task, "mode": mode, "dataset_type": "real", "variant": variant,
         "frequency": FREQUENCY, "seconds": float((frames - 1).sum() / FREQUENCY),
         "mean_forward_speed": quality["mean_forward_speed_mps"],
         "mean_speed": quality["mean_speed_mps"], "quality": quality,

@@ -15,6 +15,7 @@ import numpy as np
 from scipy.ndimage import percentile_filter, uniform_filter1d
 from scipy.spatial.transform import Rotation
 
+from loco_mujoco.datasets.foot_lock import FootLockSettings, foot_targets, is_walking, stance_phases, track
 from loco_mujoco.datasets.human_gait import SIDES, HumanGait
 from loco_mujoco.datasets.motion import Motion
 from loco_mujoco.datasets.resample import resample_angles, resample_quat
@@ -112,8 +113,8 @@ class _Feet:
         self.radii = np.stack([np.array(r + [r[0]] * (width - len(r))) for r in radii])
         self.point_bodies = np.stack([np.array(pb + [pb[0]] * (width - len(pb))) for pb in point_bodies])
 
-    def sole_points(self, qpos: np.ndarray) -> np.ndarray:
-        """World positions of the sole points, (N, feet, points, 3), with the radius taken off z."""
+    def body_poses(self, qpos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Every body's world position (N, nbody, 3) and rotation (N, nbody, 3, 3) at each configuration."""
         data = mujoco.MjData(self.model)
         n = len(qpos)
         xpos = np.empty((n, self.model.nbody, 3))
@@ -123,6 +124,11 @@ class _Feet:
             mujoco.mj_kinematics(self.model, data)
             xpos[t] = data.xpos
             xmat[t] = data.xmat.reshape(-1, 3, 3)
+        return xpos, xmat
+
+    def sole_points(self, qpos: np.ndarray, poses: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+        """World positions of the sole points, (N, feet, points, 3), with the radius taken off z."""
+        xpos, xmat = self.body_poses(qpos) if poses is None else poses
         pb = self.point_bodies
         pts = xpos[:, pb] + np.einsum("tfkij,fkj->tfki", xmat[:, pb], self.points)
         pts[..., 2] -= self.radii[None]
@@ -178,9 +184,14 @@ def _joint_limits(model: mujoco.MjModel, name: str) -> tuple[int, float, float]:
     return int(model.jnt_qposadr[j.id]), float(lo), float(hi)
 
 
-def retarget_human(gait: HumanGait, model: mujoco.MjModel, spec: HumanoidRetarget,
-                   base_qpos: np.ndarray) -> RetargetedMotion:
-    """Map a human gait onto a humanoid; joints not in the legs keep ``base_qpos`` (the home pose)."""
+def retarget_human(gait: HumanGait, model: mujoco.MjModel, spec: HumanoidRetarget, base_qpos: np.ndarray,
+                   foot_lock: bool = True, walk: bool | None = None,
+                   lock_settings: FootLockSettings | None = None) -> RetargetedMotion:
+    """Map a human gait onto a humanoid; joints not in the legs keep ``base_qpos`` (the home pose).
+
+    With ``foot_lock`` the legs are then solved by inverse kinematics so that stance feet do not slide (see
+    :mod:`foot_lock`); ``walk`` (default: decided from the Froude number) forbids flight phases.
+    """
     n = gait.n_frames
     qpos = np.tile(base_qpos, (n, 1))
     axes = joint_axes(model)
@@ -206,12 +217,24 @@ def retarget_human(gait: HumanGait, model: mujoco.MjModel, spec: HumanoidRetarge
     qpos = apply_joint_couplings(model, qpos)
     rot = Rotation.from_euler("ZX", np.stack([gait.pelvis_yaw, gait.pelvis_roll], axis=1))
     qpos[:, 3:7] = rot.as_quat()[:, [3, 0, 1, 2]]
-    feet = _Feet(model, tuple(spec.legs[s].foot_body for s in SIDES))
+    foot_bodies = tuple(spec.legs[s].foot_body for s in SIDES)
+    feet = _Feet(model, foot_bodies)
     robot_leg = _standing_root_height(model, feet, base_qpos)
     scale = robot_leg / gait.leg_length
     # the flight margin is a length of the human body: it scales with the robot's legs like the motion does
-    qpos, quality = _ground_and_odometry(qpos, feet, scale * gait.pelvis_pos[:, 2], gait.frequency,
-                                         spec.contact_height, FLIGHT_MARGIN * scale)
+    source_z = scale * gait.pelvis_pos[:, 2]
+    mapped, quality = _ground_and_odometry(qpos, feet, source_z, gait.frequency, spec.contact_height,
+                                           FLIGHT_MARGIN * scale)
+    walking = is_walking(quality["mean_speed_mps"], robot_leg) if walk is None else walk
+    if walking:  # people do not fly when they walk: the root stays on the legs
+        mapped, quality = _ground_and_odometry(qpos, feet, source_z, gait.frequency, spec.contact_height, np.inf)
+    if foot_lock:
+        qpos, worst = _lock_feet(model, mapped, feet, foot_bodies, gait.frequency, walking, scale, lock_settings)
+        quality = motion_quality(qpos, feet, gait.frequency, spec.contact_height)
+        quality["foot_lock_error_max_m"] = worst
+    else:
+        qpos = mapped
+    quality["walking"] = float(walking)
     quality["joint_limit_clipped_fraction"] = clipped / max(total, 1)
     quality["leg_length_scale"] = scale
     qvel = velocities(model, qpos, gait.frequency)
@@ -289,20 +312,87 @@ def _ground_and_odometry(qpos: np.ndarray, feet: _Feet, source_root_z: np.ndarra
     root_xy = np.concatenate([np.zeros((1, 2)), np.cumsum(0.5 * (root_v[1:] + root_v[:-1]) * dt, axis=0)])
     qpos[:, :2] = root_xy
     qpos[:, 2] = root_z
-    world_vel = contact_vel + root_v[:, None, :]
-    sliding = stance_sliding(world_vel, contact)
+    return qpos, motion_quality(qpos, feet, frequency, contact_height)
+
+
+def motion_quality(qpos: np.ndarray, feet: _Feet, frequency: float, contact_height: float) -> dict[str, float]:
+    """Contact figures of a trajectory on a flat floor at z = 0.
+
+    A foot is in contact when its lowest sole point is within ``contact_height`` of the floor (no speed term);
+    sliding is the horizontal speed of that point then. Forward speed is the root's velocity along its heading;
+    speed and travel-forward speed are those of its displacement over 1 s (the sway within a stride is not
+    travel), the latter along the heading smoothed over 1 s; the heading change is that heading's range (deg).
+    """
+    dt = 1.0 / frequency
+    pts = feet.sole_points(qpos)  # (N, feet, points, 3)
+    ground = pts[..., 2].min(axis=2)
+    contact = foot_contacts(ground, contact_height)
+    has_contact = contact.any(axis=1)
+    lowest = pts[..., 2].argmin(axis=2)
+    vel = np.gradient(pts[..., :2], dt, axis=0)
+    contact_vel = vel[np.arange(len(qpos))[:, None], np.arange(pts.shape[1])[None], lowest]
+    sliding = stance_sliding(contact_vel, contact)
+    root_v = np.gradient(qpos[:, :2], dt, axis=0)
     heading = Rotation.from_quat(qpos[:, [4, 5, 6, 3]]).apply([1.0, 0.0, 0.0])[:, :2]
+    yaw = uniform_filter1d(np.unwrap(np.arctan2(heading[:, 1], heading[:, 0])), size=max(1, int(round(frequency))),
+                           mode="nearest")
     heading /= np.linalg.norm(heading, axis=1, keepdims=True)
-    quality = {
+    # Travel: displacement over 1 s (the whole clip if shorter), so that the sway within a stride is not speed.
+    half = max(1, min(int(round(frequency / 2)), (len(qpos) - 1) // 2))
+    travel = (qpos[2 * half:, :2] - qpos[:-2 * half, :2]) / (2 * half * dt)
+    along = np.stack([np.cos(yaw[half:len(qpos) - half]), np.sin(yaw[half:len(qpos) - half])], axis=1)
+    return {
         "foot_sliding_mps": float(sliding.mean()) if sliding.size else 0.0,
         "foot_sliding_p95_mps": float(np.quantile(sliding, 0.95)) if sliding.size else 0.0,
         "ground_penetration_max_m": float(max(0.0, -ground.min())),
-        "stance_float_mean_m": float(ground.min(axis=1)[has_contact].mean()),
+        "stance_float_mean_m": float(ground.min(axis=1)[has_contact].mean()) if has_contact.any() else 0.0,
         "flight_fraction": float(1.0 - has_contact.mean()),
         "mean_forward_speed_mps": float(np.mean(np.sum(root_v * heading, axis=1))),
-        "mean_speed_mps": float(np.mean(np.linalg.norm(root_v, axis=1))),
+        "mean_speed_mps": float(np.mean(np.linalg.norm(travel, axis=1))),
+        "mean_travel_forward_mps": float(np.mean(np.sum(travel * along, axis=1))),
+        "heading_change_deg": float(np.degrees(yaw.max() - yaw.min())),
     }
-    return qpos, quality
+
+
+def _zero_pose_feet(model: mujoco.MjModel, feet: _Feet, foot_ids: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """Each foot body's rotation with all joints at zero and the root upright (its sole then lies flat), and the
+    centres of its sole spheres (radius ``feet.radii``) in its own frame, (feet, K, 3)."""
+    q = np.zeros(model.nq)
+    q[3] = 1.0
+    xpos, xmat = feet.body_poses(q[None])
+    centres = feet.sole_points(q[None], (xpos, xmat))[0]  # (feet, K, 3), world, radius taken off z
+    centres[..., 2] += feet.radii
+    rot = xmat[0, foot_ids]
+    return rot, np.einsum("fji,fkj->fki", rot, centres - xpos[0, foot_ids][:, None])
+
+
+def _lock_feet(model: mujoco.MjModel, qpos: np.ndarray, feet: _Feet, foot_bodies: tuple[str, ...], frequency: float,
+               walking: bool, scale: float, settings: FootLockSettings | None) -> tuple[np.ndarray, float]:
+    """Stance phases, anchored foot targets and the IK that meets them (see :mod:`foot_lock`)."""
+    settings = settings or FootLockSettings()
+    foot_ids = [model.body(b).id for b in foot_bodies]
+    xpos, xmat = feet.body_poses(qpos)
+    pts = feet.sole_points(qpos, (xpos, xmat))
+    height = pts[..., 2].min(axis=2)
+    lowest = pts[..., 2].argmin(axis=2)
+    vel = np.gradient(pts[..., :2], 1.0 / frequency, axis=0)
+    speed = np.linalg.norm(vel[np.arange(len(qpos))[:, None], np.arange(pts.shape[1])[None], lowest], axis=2)
+    stance = stance_phases(height, speed, frequency, walking, settings, scale)
+    flat_rot, sole = _zero_pose_feet(model, feet, foot_ids)
+    targets = foot_targets(xpos[:, foot_ids], xmat[:, foot_ids], stance, flat_rot, sole, feet.radii,
+                           settings.swing_clearance * scale)
+    # The pelvis moves with the stance feet: by how far their anchors lie from where the mapping put them.
+    shift = np.where(stance[..., None], targets.position[..., :2] - xpos[:, foot_ids, :2], 0.0).sum(axis=1)
+    count = stance.sum(axis=1)
+    frames = np.arange(len(qpos))
+    prior = qpos.copy()
+    for k in range(2):
+        shift[:, k] = np.interp(frames, frames[count > 0], shift[count > 0, k] / count[count > 0])
+    prior[:, :2] += uniform_filter1d(shift, size=max(1, int(round(0.2 * frequency))), axis=0, mode="nearest")
+    solved, worst = track(model, prior, foot_bodies, targets, sole, feet.radii, settings)
+    # Where the legs could not meet their targets, a sole may dip into the floor: lift the body out of it.
+    solved[:, 2] += np.maximum(0.0, -feet.sole_points(solved)[..., 2].min(axis=(1, 2)))
+    return solved, worst
 
 
 def _weighted_root_velocity(contact_vel: np.ndarray, weights: np.ndarray, has_contact: np.ndarray) -> np.ndarray:

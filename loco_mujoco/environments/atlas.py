@@ -3,13 +3,17 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 import mujoco
 
+from loco_mujoco.core.embodiment_model import ModelChoice
 from loco_mujoco.core.loco_env import LocoEnv, Task
 from loco_mujoco.datasets.retarget import HumanoidRetarget, LegJoints
 from loco_mujoco.models.authoring import load_own_spec
+
+DISABLE_BACK_JOINT = True  # the back is welded at the home pose by default, as upstream
 
 
 class Atlas(LocoEnv):
@@ -29,7 +33,7 @@ class Atlas(LocoEnv):
     CARRY_BODY = "utorso"  # carry task: the load sits in front of the chest, welded to this body
     CARRY_OFFSET = (0.3, 0.0, 0.15)
 
-    def __init__(self, *args: Any, disable_back_joint: bool = True, **kwargs: Any):
+    def __init__(self, *args: Any, disable_back_joint: bool = DISABLE_BACK_JOINT, **kwargs: Any):
         """``disable_back_joint``: weld the three back joints at the home pose (default, as upstream)."""
         from loco_mujoco.core.parameters import ENV_PARAMETERS
 
@@ -37,11 +41,18 @@ class Atlas(LocoEnv):
         self.disable_back_joint = disable_back_joint
         super().__init__(*args, **kwargs)
 
-    def load_spec(self) -> mujoco.MjSpec:
+    @classmethod
+    def load_spec(cls) -> mujoco.MjSpec:
         return load_own_spec("atlas")
 
-    def fixed_joints(self, spec: mujoco.MjSpec, disable_arms: bool) -> list[str]:
-        return list(self.ARM_JOINTS if disable_arms else ()) + list(self.BACK_JOINTS if self.disable_back_joint else ())
+    def _model_choice(self, control: str, disable_arms: bool) -> ModelChoice:
+        return replace(super()._model_choice(control, disable_arms),
+                       options={"disable_back_joint": self.disable_back_joint})
+
+    @classmethod
+    def fixed_joints(cls, spec: mujoco.MjSpec, choice: ModelChoice) -> list[str]:
+        back = choice.options.get("disable_back_joint", DISABLE_BACK_JOINT)
+        return list(cls.ARM_JOINTS if choice.disable_arms else ()) + list(cls.BACK_JOINTS if back else ())
 
 
 Atlas.RETARGET = HumanoidRetarget(legs={

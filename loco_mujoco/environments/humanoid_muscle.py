@@ -9,12 +9,15 @@ from __future__ import annotations
 import math
 
 import mujoco
+import numpy as np
 
 from loco_mujoco.core.body_sizes import BodySizesMixin
+from loco_mujoco.core.embodiment_model import ModelChoice
 from loco_mujoco.core.loco_env import LocoEnv, Task
+from loco_mujoco.core.sized_model import SizedModelMixin
 from loco_mujoco.datasets.retarget import HumanoidRetarget, LegJoints
 from loco_mujoco.models import spec_edit
-from loco_mujoco.models.myo_human import HOME_KEY, load_myo_human_spec
+from loco_mujoco.models.myo_human import HOME_KEY, apply_coarse_step_settings, load_myo_human_spec
 
 
 class HumanoidMuscle(LocoEnv):
@@ -33,12 +36,13 @@ class HumanoidMuscle(LocoEnv):
     # No LEG_ROOTS: myo_human already restricts contacts to soles-floor plus myo-sim's explicit leg-leg pairs;
     # spec_edit.filter_self_collisions would add bitmask contacts between all leg bones on top of those pairs.
     ROOT_HEIGHT_RANGE = (0.6, 1.5)  # pelvis height (m); home 0.945
-    # bench/timestep_study.py: against a 0.25 ms reference, explicit Euler at 2.5 ms tracks 3x closer than
-    # implicitfast at 2 ms (implicitfast's muscle-damping linearisation over-damps) and is 1.6x faster; it stays
-    # as stable as 2 ms under bang-bang excitation, while 3.3 ms and 5 ms show velocity spikes.
-    TIMESTEP = 0.0025
-    N_SUBSTEPS = 4
-    INTEGRATOR = mujoco.mjtIntegrator.mjINT_EULER
+    # implicitfast at 5 ms x 2 with myo_human.apply_coarse_step_settings (bench/timestep_study.py, BENCHMARKS.md):
+    # explicit Euler needs <= 2.5 ms (4 physics steps per control step) because the muscles' force-velocity damping
+    # on the light foot is stiff; integrating it implicitly allows 2 steps, 1.4x faster. Bang-bang excitation stays
+    # under 25 rad/s (Euler at 5 ms: ~135); the price is ~3x the short-horizon error of Euler at 2.5 ms.
+    TIMESTEP = 0.005
+    N_SUBSTEPS = 2
+    INTEGRATOR = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     MAX_TILT = math.pi / 4
     LEG_JOINTS = {
         side: dict(hip_rotation=f"hip_rotation_{side}", hip_adduction=f"hip_adduction_{side}",
@@ -47,21 +51,23 @@ class HumanoidMuscle(LocoEnv):
         for side in ("l", "r")
     }
 
-    def load_spec(self) -> mujoco.MjSpec:
+    @classmethod
+    def load_spec(cls) -> mujoco.MjSpec:
         """The musculoskeletal human on a floor (see :func:`loco_mujoco.models.myo_human.load_myo_human_spec`)."""
         return load_myo_human_spec()
 
-    def build_spec(self, control: str, disable_arms: bool) -> mujoco.MjSpec:
+    @classmethod
+    def assemble_spec(cls, spec: mujoco.MjSpec, choice: ModelChoice) -> tuple[mujoco.MjSpec, dict[str, np.ndarray]]:
         """The model with its muscles kept as muscles (excitation in [0, 1]); the model has no arms to disable."""
-        spec = self.load_spec()
         spec_edit.name_free_joint(spec)
-        self._home_by_joint = spec_edit.keyframe_qpos(spec, self.HOME_KEY)
+        home = spec_edit.keyframe_qpos(spec, cls.HOME_KEY)
         for act in spec.actuators:  # the action mapping (-1 -> 0, +1 -> 1) relies on this; myo-sim's values
             is_muscle = act.gaintype == mujoco.mjtGain.mjGAIN_MUSCLE and act.dyntype == mujoco.mjtDyn.mjDYN_MUSCLE
             limited = act.ctrllimited == mujoco.mjtLimited.mjLIMITED_TRUE
             if not (is_muscle and limited and list(act.ctrlrange) == [0, 1]):
                 raise ValueError(f"actuator '{act.name}' is not a muscle with ctrlrange [0, 1]")
-        return spec
+        apply_coarse_step_settings(spec)  # what implicitfast at TIMESTEP needs (armature, actearly, limits, islands)
+        return spec, home
 
 
 HumanoidMuscle.RETARGET = HumanoidRetarget(
@@ -69,7 +75,7 @@ HumanoidMuscle.RETARGET = HumanoidRetarget(
     contact_height=0.005)  # long flat feet skim the floor in swing, as on HumanoidTorque
 
 
-class HumanoidMuscle4Ages(BodySizesMixin, HumanoidMuscle):
+class HumanoidMuscle4Ages(SizedModelMixin, BodySizesMixin, HumanoidMuscle):
     """The musculoskeletal human at four statures: mode 1 (0.86 m, ~2 years), 2 (1.10 m, ~5 years),
     3 (1.50 m, ~12 years), 4 (1.70 m, adult), or ``all``; muscle forces scale with stature squared."""
 

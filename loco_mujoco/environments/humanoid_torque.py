@@ -12,6 +12,7 @@ import mujoco
 
 from loco_mujoco.core.body_sizes import BodySizesMixin
 from loco_mujoco.core.loco_env import LocoEnv, Task
+from loco_mujoco.core.sized_model import SizedModelMixin
 from loco_mujoco.datasets.retarget import HumanoidRetarget, LegJoints
 from loco_mujoco.models.authoring import load_own_spec
 
@@ -40,11 +41,12 @@ class HumanoidTorque(LocoEnv):
     MAX_TILT = math.pi / 4
     RETARGET = HUMAN_RETARGET
 
-    def load_spec(self) -> mujoco.MjSpec:
+    @classmethod
+    def load_spec(cls) -> mujoco.MjSpec:
         return load_own_spec("humanoid_torque")
 
 
-class HumanoidTorque4Ages(BodySizesMixin, HumanoidTorque):
+class HumanoidTorque4Ages(SizedModelMixin, BodySizesMixin, HumanoidTorque):
     """The skeleton at four statures: mode 1 (0.86 m, ~2 years), 2 (1.10 m, ~5 years), 3 (1.50 m, ~12 years),
     4 (1.78 m, adult), or ``all`` (one sampled per episode, size code in the observation)."""
 

@@ -6,6 +6,7 @@ import math
 
 import mujoco
 
+from loco_mujoco.core.embodiment_model import ModelChoice
 from loco_mujoco.core.loco_env import LocoEnv, Task
 from loco_mujoco.datasets.retarget import HumanoidRetarget, LegJoints
 from loco_mujoco.models.menagerie import load_menagerie_spec
@@ -26,11 +27,13 @@ class Talos(LocoEnv):
     CARRY_OFFSET = (0.3, 0.0, 0.0)
     _ALWAYS_FIXED_PREFIXES = ("gripper_", "head_")
 
-    def load_spec(self) -> mujoco.MjSpec:
+    @classmethod
+    def load_spec(cls) -> mujoco.MjSpec:
         return load_menagerie_spec("pal_talos", "scene_motor")
 
-    def fixed_joints(self, spec: mujoco.MjSpec, disable_arms: bool) -> list[str]:
-        prefixes = self._ALWAYS_FIXED_PREFIXES + (("arm_",) if disable_arms else ())
+    @classmethod
+    def fixed_joints(cls, spec: mujoco.MjSpec, choice: ModelChoice) -> list[str]:
+        prefixes = cls._ALWAYS_FIXED_PREFIXES + (("arm_",) if choice.disable_arms else ())
         return [j.name for j in spec.joints if j.name.startswith(prefixes)]
 
 

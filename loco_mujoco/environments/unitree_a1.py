@@ -30,10 +30,12 @@ class UnitreeA1(LocoEnv):
     ROOT_HEIGHT_RANGE = (0.12, 0.6)  # trunk height (m); home 0.27
     MAX_TILT = math.pi / 3
 
-    def load_spec(self) -> mujoco.MjSpec:
+    @classmethod
+    def load_spec(cls) -> mujoco.MjSpec:
         return load_menagerie_spec("unitree_a1", "scene")
 
-    def pd_gains(self, spec: mujoco.MjSpec) -> dict[str, tuple[float, float]]:
+    @classmethod
+    def pd_gains(cls, spec: mujoco.MjSpec) -> dict[str, tuple[float, float]]:
         """Menagerie's servo stiffness (kp 100); damping comes from the joints' own damping."""
         return {a.target: (100.0, 0.0) for a in spec.actuators}
 

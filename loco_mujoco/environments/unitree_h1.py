@@ -28,7 +28,8 @@ class UnitreeH1(LocoEnv):
     CARRY_BODY = "torso_link"  # carry task: the load sits in front of the chest, welded to this body
     CARRY_OFFSET = (0.25, 0.0, 0.15)
 
-    def load_spec(self) -> mujoco.MjSpec:
+    @classmethod
+    def load_spec(cls) -> mujoco.MjSpec:
         return load_menagerie_spec("unitree_h1", "scene")
 
 

@@ -45,6 +45,11 @@ LEG_JOINTS: tuple[str, ...] = tuple(f"{j}_{s}" for s in SIDES for j in _PRIMARY)
 COUPLED_JOINTS: tuple[str, ...] = tuple(f"{j}_{s}" for s in SIDES for j in _COUPLED)
 # Bodies whose collision geoms form the soles; the only geoms that touch the floor.
 FOOT_BODIES: tuple[str, ...] = tuple(f"{b}_{s}" for s in SIDES for b in ("calcn", "toes"))
+# Armature (kg, at adult size) that :func:`apply_coarse_step_settings` gives the knee's slaved translations: the
+# tibia's translations relative to the femur and the patella's. Each moves at most 7 mm (tibia) or 5 cm (patella) per
+# radian of knee flexion, so this adds at most 30 * 4.5e-5 + 1 * 4.6e-3 = 0.006 kg m^2 (~1 %) to the knee's inertia.
+SLAVED_TRANSLATION_ARMATURE = {"knee_angle_translation1": 30.0, "knee_angle_translation2": 30.0,
+                               "knee_angle_beta_translation1": 1.0, "knee_angle_beta_translation2": 1.0}
 
 
 def myo_sim_models_dir() -> Path:
@@ -278,3 +283,50 @@ def sole_geoms(model: mujoco.MjModel) -> list[int]:
 def lowest_sole_point(model: mujoco.MjModel, data: mujoco.MjData) -> float:
     """Height (m) of the lowest point of the sole geoms in the current pose (needs ``mj_kinematics``)."""
     return lowest_point(model, data, sole_geoms(model), FLOOR)
+
+
+def apply_coarse_step_settings(spec: mujoco.MjSpec) -> None:
+    """Numerical settings that keep implicitfast at 5 ms stable and close to a fine-step reference.
+
+    At 5 ms only an implicit integrator survives the muscles' force-velocity damping (the ankle's eigenvalue reaches
+    -1000..-2000 /s at full excitation; explicit Euler needs dt < 2 ms there). implicitfast integrates that damping
+    implicitly but passes the constraint forces, solved against the plain mass matrix, through M - dt*D. On the
+    equality-slaved knee translations (a 28 g patella pulled by the quadriceps: dt*D/M ~ 150) that inconsistency
+    made the model sag 73 mm off the reference within 1 s (bench/timestep_study.py). This function:
+
+    - gives the slaved translations an armature (:data:`SLAVED_TRANSLATION_ARMATURE`, scaled with the body's mass
+      for the smaller body sizes), so dt*D/M stays ~1-6 there; it adds ~1 % to the knee's inertia;
+    - sets ``actearly`` on the muscles: the force uses the activation at the end of the step. Without it an
+      excitation switched on at 5 ms reaches full activation within one step while the force still lags by one,
+      and the ankle whips to 30-40 rad/s where the 0.25 ms reference stays under 6;
+    - unlimits the slaved joints: their ranges are the images of the knee's range, so the knee's own limit already
+      bounds them; as separate rows they only fought the couplings (and cost solver time);
+    - disables constraint-island discovery: the whole body is one island anyway.
+
+    Muscle, tendon, inertial and contact parameters stay myo-sim's; only these numerical settings change.
+    """
+    size = spec.body("tibia_r").mass / _composed_spec().body("tibia_r").mass  # 1 at adult size, f**3 when scaled
+    for side in SIDES:
+        for joint, armature in SLAVED_TRANSLATION_ARMATURE.items():
+            spec.joint(f"{joint}_{side}").armature = armature * size
+    for joint in COUPLED_JOINTS:
+        spec.joint(joint).limited = mujoco.mjtLimited.mjLIMITED_FALSE
+    for actuator in spec.actuators:
+        actuator.actearly = True
+    spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_ISLAND
+
+
+def restore_myo_sim_settings(model: mujoco.MjModel) -> None:
+    """Undo :func:`apply_coarse_step_settings` on a compiled model: myo-sim's armature and limits on the slaved knee
+    joints, no ``actearly``, island discovery on. For reference simulations at fine timesteps, where myo-sim's own
+    settings are the model to compare with."""
+    authored = _composed_spec()
+    size = model.body("tibia_r").mass[0] / authored.body("tibia_r").mass  # f**3 of a scaled body; armature goes f**5
+    for side in SIDES:
+        for joint in SLAVED_TRANSLATION_ARMATURE:
+            armature = authored.joint(f"{joint}_{side}").armature * size ** (5 / 3)
+            model.dof_armature[model.joint(f"{joint}_{side}").dofadr[0]] = armature
+    for joint in COUPLED_JOINTS:
+        model.jnt_limited[model.joint(joint).id] = authored.joint(joint).limited != mujoco.mjtLimited.mjLIMITED_FALSE
+    model.actuator_actearly[:] = False
+    model.opt.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_ISLAND)
