@@ -1,5 +1,8 @@
-"""IQ-Learn, LS-IQ and SQIL: updates on real data, their losses' defining properties, the actor's hand-written
-gradient, and exact resumption from a checkpoint plus the replay buffer saved beside it."""
+"""IQ-Learn, LS-IQ and SQIL: updates on real data, their losses' defining properties, the hand-written backward
+passes (critics, actor) and the whole update against autograd, and exact resumption from a checkpoint plus the
+replay buffer saved beside it."""
+
+import copy
 
 import numpy as np
 import pytest
@@ -9,7 +12,9 @@ from mushroom_rl.core import Core
 import loco_mujoco as lm
 from baselines import ALGORITHMS, make_agent
 from baselines.common.expert_data import ExpertData
-from baselines.common.offpolicy import CriticBatch
+from baselines.common.offpolicy import CriticBatch, fused_adam_step
+from baselines.common.squashed_policy import TanhGaussianPolicy
+from baselines.common.standardizer import RunningStandardizer
 from baselines.common.twin_critic import TwinCritic
 from baselines.config import load_run_config
 from baselines.lsiq.lsiq import lsiq_value_target, q_bound
@@ -132,6 +137,132 @@ def test_actor_gradient_through_the_critics_matches_autograd(activation):
     values, _ = critic(torch.cat([x, a], 1))
     (expected,) = torch.autograd.grad((values * grad_q).sum(), a)
     assert torch.allclose(critic.action_gradient(hidden, grad_q), expected, atol=1e-6)
+
+
+@pytest.mark.parametrize("activation", ["relu", "tanh"])
+@pytest.mark.parametrize(("loss_start", "n_loss", "n_actions", "ones"), [
+    (0, 12, 6, False),  # every row in the loss, the actor's rows among them (IQ-Learn)
+    (3, 9, 6, True),  # leading rows without loss (LS-IQ: the agent's Q(s, a)), bias from a column of ones
+    (0, 6, 6, True),  # the actor's rows outside the loss's (SQIL): each down its own critic
+    (0, 12, 0, False)])
+def test_critic_backward_matches_autograd(activation, loss_start, n_loss, n_actions, ones):
+    critic = TwinCritic(5, 3, (16, 8), activation, generator=torch.Generator().manual_seed(1))
+    with torch.no_grad():
+        critic.weights[-1].normal_()
+        for bias in critic.biases:
+            bias.normal_()
+    x = torch.randn(12, 8)
+    grad_values = torch.randn(2, n_loss)
+    chosen = torch.randint(0, 2, (n_actions,), generator=torch.Generator().manual_seed(2)) if n_actions else None
+    _, hidden = critic(critic.with_ones(x) if ones else x, keep=True)
+    grad_action = critic.backward(critic.with_ones(x) if ones else x, hidden, grad_values, loss_start, chosen, -0.25)
+    manual = [p.grad for p in critic.parameters()]
+
+    inputs = x.clone().requires_grad_()
+    values, _ = critic(inputs)
+    expected = torch.autograd.grad((values[:, loss_start:loss_start + n_loss] * grad_values).sum(),
+                                   list(critic.parameters()), retain_graph=True)
+    for got, want in zip(manual, expected, strict=True):
+        assert got.shape == want.shape and got.is_contiguous()
+        assert torch.allclose(got, want, rtol=1e-5, atol=1e-6)
+    if n_actions:
+        actor_values = values[:, 12 - n_actions:].gather(0, chosen.unsqueeze(0))
+        (expected_action,) = torch.autograd.grad(-0.25 * actor_values.sum(), inputs)
+        assert torch.allclose(grad_action, expected_action[12 - n_actions:, 5:], rtol=1e-5, atol=1e-6)
+    else:
+        assert grad_action is None
+
+
+@pytest.mark.parametrize("activation", ["relu", "tanh"])
+def test_actor_backward_matches_autograd(activation):
+    """forward_kept -> squash_t -> squash_backward -> backward_kept: the gradient of the actor's loss
+    ``w sum log pi + sum(a * G)`` on the first rows, as autograd gives it through sample_t (clipped log-stds too)."""
+    standardizer = RunningStandardizer(6)
+    policy = TanhGaussianPolicy(np.ones(6, bool), 3, standardizer, (16, 8), activation,
+                                generator=torch.Generator().manual_seed(0))
+    with torch.no_grad():
+        policy.net[-2].weight.normal_(std=2.0)  # log-stds on both sides of [log_std_min, log_std_max]
+    x, noise, grad_action = torch.randn(10, 6), torch.randn(10, 3), torch.randn(6, 3)
+    out, inputs = policy.forward_kept(torch.cat([x, torch.ones(10, 1)], 1))
+    raw_log_std = out[:, 3:]
+    assert ((raw_log_std < policy.log_std_min) | (raw_log_std > policy.log_std_max)).any()
+    action, log_prob = policy.squash_t(out, noise)
+    policy.backward_kept(inputs, policy.squash_backward(out[:6], noise[:6], action[:6], 0.3, grad_action))
+    manual = [p.grad.clone() for p in policy.parameters()]
+
+    expected_action, expected_log_prob = policy.sample_t(x, noise)
+    assert torch.allclose(action, expected_action, atol=1e-6) and torch.allclose(log_prob, expected_log_prob, atol=1e-5)
+    loss = 0.3 * expected_log_prob[:6].sum() + (expected_action[:6] * grad_action).sum()
+    for got, want in zip(manual, torch.autograd.grad(loss, list(policy.parameters())), strict=True):
+        assert torch.allclose(got, want, rtol=1e-5, atol=1e-6)
+
+
+def autograd_update(agent):
+    """The update with autograd through actor and critics (the implementation the hand-written one replaced)."""
+    x, action, x_next, absorbing = agent._sample()
+    n = x.shape[0]
+    noise = torch.randn((2, n, agent.policy.act_dim), generator=agent._generator)
+    alpha = agent.log_alpha.detach().exp()
+    with torch.no_grad():
+        next_action, next_log_prob = agent.policy.sample_t(x_next, noise[1])
+        next_q, _ = agent.target_critic(torch.cat([x_next, next_action], 1))
+        next_v = next_q.amin(0) - alpha * next_log_prob
+    new_action, log_prob = agent.policy.sample_t(x, noise[0])
+    q, _ = agent.critic(torch.cat([x, action], 1))
+    q_new, _ = agent.critic(torch.cat([x, new_action], 1))  # the actor's and the loss's values, one graph
+    batch = CriticBatch(q=q, v=q_new - alpha * log_prob.detach(), next_v=next_v, absorbing=absorbing,
+                        n_agent=agent.config.batch_size, gamma=agent.mdp_info.gamma)
+    if not agent.uses_policy_values:
+        batch.v = batch.v.detach()
+    critic_loss, _ = agent.critic_loss(batch)
+    critic_grads = torch.autograd.grad(critic_loss, list(agent.critic.parameters()), retain_graph=True)
+    actor_loss = (alpha * log_prob - q_new.min(0).values).mean()
+    actor_grads = torch.autograd.grad(actor_loss, list(agent.policy.parameters()))
+    for params, grads, optimizer in ((agent.critic.parameters(), critic_grads, agent.critic_optimizer),
+                                     (agent.policy.parameters(), actor_grads, agent.actor_optimizer)):
+        for p, g in zip(params, grads, strict=True):
+            p.grad = g
+        optimizer.step()
+    if agent.alpha_optimizer is not None:
+        agent.log_alpha.grad = None
+        (-(agent.log_alpha * (log_prob.detach() + agent.target_entropy).mean())).backward()
+        agent.alpha_optimizer.step()
+    agent.critic.soft_update(agent.target_critic, agent.config.tau)
+
+
+@pytest.mark.parametrize(("algorithm", "extra"), [("sqil", {}), ("iq_learn", {}), ("lsiq", {"learn_alpha": True}),
+                                                   ("iq_learn", {"loss_mode": "v0", "activation": "tanh"})])
+def test_update_matches_the_autograd_update(env, algorithm, extra):
+    agent = make_agent(algorithm, env, config={**SMALL, **extra}, seed=0)
+    learn(agent, env, 150)  # the optimisers' states exist
+    reference = copy.deepcopy(agent)
+    for _ in range(3):
+        agent.update()
+        autograd_update(reference)
+    pairs = [(agent.critic, reference.critic), (agent.target_critic, reference.target_critic),
+             (agent.policy.net, reference.policy.net)]
+    for ours, theirs in pairs:
+        for (name, got), want in zip(ours.named_parameters(), theirs.parameters(), strict=True):
+            assert torch.allclose(got, want, rtol=1e-4, atol=1e-6 * float(want.detach().abs().max())), name
+    assert torch.allclose(agent.log_alpha, reference.log_alpha)
+    assert agent._rng.bit_generator.state == reference._rng.bit_generator.state
+    assert torch.equal(agent._generator.get_state(), reference._generator.get_state())
+
+
+def test_fused_adam_step_is_adam_step():
+    params = [torch.nn.Parameter(torch.randn(2, 5, 4, generator=torch.Generator().manual_seed(i))) for i in range(2)]
+    twins = [torch.nn.Parameter(p.detach().clone()) for p in params]
+    adam = torch.optim.Adam(params, lr=1e-2, fused=True)
+    ours = torch.optim.Adam(twins, lr=1e-2, fused=True)
+    for step in range(4):
+        for p, q in zip(params, twins, strict=True):
+            p.grad = torch.randn(p.shape, generator=torch.Generator().manual_seed(10 + step))
+            q.grad = p.grad.clone()
+        adam.step()
+        fused_adam_step(ours)  # the first step (no state yet) goes through Adam.step
+    assert all(torch.equal(p, q) for p, q in zip(params, twins, strict=True))
+    for p, q in zip(params, twins, strict=True):
+        assert all(torch.equal(v, ours.state[q][k]) for k, v in adam.state[p].items())
 
 
 def test_lsiq_from_observations_learns_an_inverse_model(env):

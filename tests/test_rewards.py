@@ -56,7 +56,9 @@ def test_expert_frames_earn_the_same_reward_facing_any_heading():
         ds = env.dataset
         sl = ds.trajectory_slice(0)
         qw, qz = ds.qpos[sl.start, 3], ds.qpos[sl.start, 6]
-        angle = -2.0 * math.atan2(qz, qw)  # undo the first frame's yaw (approximately: it faces +x after)
+        # undo the first frame's yaw and turn by 1 rad more, so the rotation is never the identity (the A1's
+        # controller data starts facing +x)
+        angle = -2.0 * math.atan2(qz, qw) + 1.0
         c, s = math.cos(angle), math.sin(angle)
         rot = np.array([[c, -s], [s, c]])
         vx_before = ds.qvel[:, 0].copy()

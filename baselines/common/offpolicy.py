@@ -15,12 +15,16 @@
    * **temperature**: fixed ``alpha``, or with ``learn_alpha`` minimises ``-log(alpha) (log pi + target_entropy)``;
    * **targets**: ``Qt <- Qt + tau (Q - Qt)``.
 
-   The actor's and the critic's gradients come from the same forward passes: the critic's by autograd, the
-   actor's through ``a~`` by the critic's hand-written action gradient
-   (:meth:`~baselines.common.twin_critic.TwinCritic.action_gradient`; no second pass through the critics and
-   no critic weight gradients it would discard). So the actor step uses the critic before its step, as in
-   Mushroom-RL's SAC. Per update that is two actor passes (``s`` with gradients, ``s'`` without), one target
-   pass and two critic passes of ``2B`` rows, each layer of both critics one batched matrix product.
+   Per update that is one actor pass over the ``4B`` rows ``[s; s']``, one target pass over ``[s', a']`` and
+   one pass of the online critics over the ``4B`` rows ``[s, a; s, a~]`` (each layer of both critics one
+   batched matrix product). Autograd differentiates only the algorithm's loss w.r.t. the values; the backward
+   passes through critics and actor are written out (:meth:`~baselines.common.twin_critic.TwinCritic.backward`,
+   :meth:`~baselines.common.squashed_policy.TanhGaussianPolicy.squash_backward` and ``backward_kept``): the
+   critic's weight gradients and the actor's gradient through ``a~`` come from the same products (rows whose
+   cotangent is zero are skipped: LS-IQ's loss has no term on the agent's ``Q(s, a)``), so the actor step
+   uses the critic before its step, as in Mushroom-RL's SAC. The Adam steps call the fused kernel directly
+   (:func:`fused_adam_step`). Same losses, same order, same numbers up to float rounding as the autograd
+   version (tests/test_offpolicy.py compares them).
 
 The observation standardizer is fitted once, on the expert's states (like BC), so runs are reproducible and
 the critic's inputs never drift. Networks see the observation entries the expert data knows: those of its
@@ -114,6 +118,27 @@ class CriticBatch:
     gamma: float
 
 
+def fused_adam_step(optimizer: torch.optim.Optimizer) -> None:
+    """``optimizer.step()`` for a fused, single-group Adam without AMSGrad whose state exists: the same kernel call
+    (``torch._fused_adam_``, step counts incremented first, as ``torch.optim.Adam`` does), without the generic
+    wrapper's per-step grouping, hooks and checks (~0.1 ms). Anything else goes through ``optimizer.step()``."""
+    group = optimizer.param_groups[0]
+    params, state = group["params"], optimizer.state
+    if (len(optimizer.param_groups) != 1 or not isinstance(optimizer, torch.optim.Adam) or not group["fused"]
+            or group["amsgrad"] or group["decoupled_weight_decay"] or group["differentiable"]
+            or len(state) != len(params) or any(p.grad is None for p in params)):
+        optimizer.step()
+        return
+    states = [state[p] for p in params]
+    steps = [s["step"] for s in states]
+    torch._foreach_add_(steps, 1)
+    beta1, beta2 = group["betas"]
+    torch._fused_adam_(params, [p.grad for p in params], [s["exp_avg"] for s in states],
+                       [s["exp_avg_sq"] for s in states], [], steps, amsgrad=False, lr=group["lr"], beta1=beta1,
+                       beta2=beta2, weight_decay=group["weight_decay"], eps=group["eps"], maximize=group["maximize"],
+                       grad_scale=None, found_inf=None)
+
+
 class OffPolicyImitation(Agent):
     """Base class: see the module docstring. Subclasses set ``name``, ``config_class`` and :meth:`critic_loss`."""
 
@@ -174,8 +199,13 @@ class OffPolicyImitation(Agent):
         self._expert_states = torch.from_numpy(np.ascontiguousarray(expert.states[:, known]))
         self._expert_next_states = torch.from_numpy(np.ascontiguousarray(expert.next_states[:, known]))
         self._expert_absorbing = torch.from_numpy(expert.absorbing.astype(np.float32))
-        self._expert_actions = (torch.from_numpy(np.clip(expert.actions, -1.0, 1.0))
+        self._expert_actions = (torch.from_numpy(np.clip(expert.actions, -1.0, 1.0).astype(np.float32))
                                 if expert.has_actions and not config.from_observations else None)
+        # numpy views of the same memory, for the gathers of _sample_rows
+        self._expert_states_np = self._expert_states.numpy()
+        self._expert_next_states_np = self._expert_next_states.numpy()
+        self._expert_absorbing_np = self._expert_absorbing.numpy()
+        self._expert_actions_np = None if self._expert_actions is None else self._expert_actions.numpy()
         self.warmup = config.initial_samples
         self.transitions = 0  # environment transitions fitted
         self.updates = 0
@@ -225,64 +255,95 @@ class OffPolicyImitation(Agent):
 
     def update(self) -> None:
         """One update of critic, actor, temperature and target critics (see the module docstring)."""
-        x, action, x_next, absorbing = self._sample()
-        n = x.shape[0]
-        noise = torch.randn((2, n, self.policy.act_dim), generator=self._generator)
+        states, action, absorbing = self._sample_rows()  # states: x (rows [:n]) then x' (rows [n:])
+        n = action.shape[0]
+        policy, critic = self.policy, self.critic
+        noise = torch.randn((2, n, policy.act_dim), generator=self._generator)
         alpha = self.log_alpha.detach().exp()
         with torch.no_grad():
-            next_action, next_log_prob = self.policy.sample_t(x_next, noise[1])
-            next_q, _ = self.target_critic(torch.cat([x_next, next_action], 1))
+            # One actor pass over [x; x'] and one pass of the online critics over [x, a; x, a~] (a~ ~ pi(.|x)); the
+            # inputs end in a column of ones, so that the first layers' biases enter their products.
+            out, actor_inputs = policy.forward_kept(states)
+            sampled, log_probs = policy.squash_t(out, noise.view(2 * n, -1))
+            x, x_next = states[:n, :-1], states[n:, :-1]
+            new_action, log_prob, next_log_prob = sampled[:n], log_probs[:n], log_probs[n:]
+            next_q, _ = self.target_critic(TwinCritic.with_ones(x_next, sampled[n:]))
             next_v = next_q.amin(0) - alpha * next_log_prob
-        new_action, log_prob = self.policy.sample_t(x, noise[0])
-        q, _ = self.critic(torch.cat([x, action], 1))
-        with torch.set_grad_enabled(self.uses_policy_values):  # v's gradient to the critic, if the loss has v
-            q_new, hidden = self.critic(torch.cat([x, new_action.detach()], 1), keep=True)
-        batch = CriticBatch(q=q, v=q_new - alpha * log_prob.detach(), next_v=next_v, absorbing=absorbing,
+            critic_input = torch.cat([TwinCritic.with_ones(x, action), TwinCritic.with_ones(x, new_action)])
+            values, hidden = critic(critic_input, keep=True)
+        # The critic loss is differentiated by autograd w.r.t. the values only; the rest is written out below.
+        if self.uses_policy_values:
+            leaf = values.detach().requires_grad_()
+            q, q_new = leaf[:, :n], leaf[:, n:]
+        else:
+            leaf = values[:, :n].detach().requires_grad_()
+            q, q_new = leaf, values[:, n:]
+        batch = CriticBatch(q=q, v=q_new - alpha * log_prob, next_v=next_v, absorbing=absorbing,
                             n_agent=self.config.batch_size, gamma=self.mdp_info.gamma)
         critic_loss, stats = self.critic_loss(batch)
-        critic_loss.backward()
-        # The actor minimises mean(alpha log pi - min_j Q_j(s, a~)): its gradient through a~ is written out from
-        # the critic's forward pass (before the critic's step), so the surrogate below has the exact gradient.
-        q_min, argmin = q_new.detach().min(0)
-        grad_q = torch.zeros_like(q_new).scatter_(0, argmin.unsqueeze(0), -1.0 / n)
-        grad_action = self.critic.action_gradient(hidden, grad_q)
-        ((alpha * log_prob).mean() + (new_action * grad_action).sum()).backward()
-        self.critic_optimizer.step()
-        self.actor_optimizer.step()
-        self.critic_optimizer.zero_grad(set_to_none=True)
-        self.actor_optimizer.zero_grad(set_to_none=True)
+        (grad_values,) = torch.autograd.grad(critic_loss, leaf, allow_unused=True, materialize_grads=True)
+        with torch.no_grad():
+            # The actor minimises mean(alpha log pi - min_j Q_j(s, a~)): the critics' action gradient of
+            # -min_j Q_j / n goes down the critic layers with the loss's cotangent (critic before its step).
+            q_min, argmin = values[:, n:].min(0)
+            # Rows whose cotangent is zero add nothing (LS-IQ's loss has no term on the agent's Q(s, a)): skip them.
+            b = self.config.batch_size
+            loss_start = b if not grad_values[:, :b].any() else 0
+            grad_action = critic.backward(critic_input, hidden, grad_values[:, loss_start:], loss_start, argmin,
+                                          -1.0 / n)
+            policy.backward_kept(actor_inputs, policy.squash_backward(out[:n], noise[0], new_action, alpha / n,
+                                                                      grad_action))
+        fused_adam_step(self.critic_optimizer)
+        fused_adam_step(self.actor_optimizer)
         if self.alpha_optimizer is not None:
-            alpha_loss = -(self.log_alpha * (log_prob.detach() + self.target_entropy).mean())
-            self.alpha_optimizer.zero_grad(set_to_none=True)
-            alpha_loss.backward()
+            self.log_alpha.grad = -(log_prob + self.target_entropy).mean()  # d/d(log alpha) of the alpha loss
             self.alpha_optimizer.step()
         self.critic.soft_update(self.target_critic, self.config.tau)
         self.updates += 1
         with torch.no_grad():
             b = self.config.batch_size
             stats = {"critic_loss": critic_loss, "actor_loss": (alpha * log_prob - q_min).mean(),
-                     "q_agent": q[:, :b].mean(), "q_expert": q[:, b:].mean(), "v_next": next_v.mean(),
+                     "q_agent": values[:, :b].mean(), "q_expert": values[:, b:n].mean(), "v_next": next_v.mean(),
                      "entropy": -log_prob.mean(), "alpha": alpha, **stats, **self._inverse_model_stats}
             self._accumulate(stats)
 
     def _sample(self) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
         """Standardized ``(x, a, x', absorbing)`` of ``batch_size`` agent then ``batch_size`` expert transitions."""
-        b, buf = self.config.batch_size, self.buffer
+        states, action, absorbing = self._sample_rows()
+        n = action.shape[0]
+        return states[:n, :-1], action, states[n:, :-1], absorbing
+
+    def _sample_rows(self) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """:meth:`_sample` as ``(states, a, absorbing)``: ``states`` holds ``x`` in rows ``[:2B]`` and ``x'`` in rows
+        ``[2B:]``, followed by a column of ones (the networks' first layers take their bias from it). Gathered by
+        numpy into one array, standardized in place."""
+        b, buf, obs_dim = self.config.batch_size, self.buffer, self.buffer.obs_dim
         agent_idx = self._rng.integers(buf.size, size=b)
-        expert_idx = torch.from_numpy(self._rng.integers(len(self.expert), size=b))
-        x = torch.cat([torch.from_numpy(buf.states[agent_idx]), self._expert_states[expert_idx]])
-        x_next = torch.cat([torch.from_numpy(buf.next_states[agent_idx]), self._expert_next_states[expert_idx]])
-        x, x_next = self.obs_standardizer.normalize_torch(x), self.obs_standardizer.normalize_torch(x_next)
-        agent_action = torch.from_numpy(buf.actions[agent_idx])
+        expert_idx = self._rng.integers(len(self.expert), size=b)
+        states = np.empty((4 * b, obs_dim + 1), np.float32)
+        for rows, source, idx in ((slice(0, b), buf.states, agent_idx),
+                                  (slice(b, 2 * b), self._expert_states_np, expert_idx),
+                                  (slice(2 * b, 3 * b), buf.next_states, agent_idx),
+                                  (slice(3 * b, 4 * b), self._expert_next_states_np, expert_idx)):
+            np.take(source, idx, axis=0, out=states[rows, :obs_dim])
+        states[:, :obs_dim] = self.obs_standardizer.normalize(states[:, :obs_dim])
+        states[:, obs_dim] = 1.0
+        states = torch.from_numpy(states)
+        action = np.empty((2 * b, buf.act_dim), np.float32)
+        np.take(buf.actions, agent_idx, axis=0, out=action[:b])
+        absorbing = np.empty(2 * b, np.float32)
+        np.take(buf.absorbing, agent_idx, out=absorbing[:b])
+        np.take(self._expert_absorbing_np, expert_idx, out=absorbing[b:])
+        action = torch.from_numpy(action)
         if self.inverse_model is not None:  # fit f(s, s') on the agent's transitions, then label the expert's
-            loss = self.inverse_model.fit(x[:b], x_next[:b], agent_action)
-            expert_action = self.inverse_model.predict(x[b:], x_next[b:])
+            x, x_next = states[:2 * b, :obs_dim], states[2 * b:, :obs_dim]
+            loss = self.inverse_model.fit(x[:b], x_next[:b], action[:b])
+            action[b:] = self.inverse_model.predict(x[b:], x_next[b:])
             self._inverse_model_stats = {"inverse_model_loss": loss}
         else:
-            expert_action = self._expert_actions[expert_idx]
+            np.take(self._expert_actions_np, expert_idx, axis=0, out=action.numpy()[b:])
             self._inverse_model_stats = {}
-        absorbing = torch.cat([torch.from_numpy(buf.absorbing[agent_idx]), self._expert_absorbing[expert_idx]])
-        return x, torch.cat([agent_action, expert_action]), x_next, absorbing
+        return states, action, torch.from_numpy(absorbing)
 
     # ---- statistics -------------------------------------------------------------------------------------
     def _accumulate(self, stats: dict[str, torch.Tensor]) -> None:

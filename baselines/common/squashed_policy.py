@@ -10,8 +10,11 @@ lies in the environment's normalised box ``[-1, 1]``. Its log-density is
 * ``draw_action`` (called by ``Core`` at every step) runs the MLP in numpy on **views** of the torch
   parameters (the optimiser updates them in place), so nothing is copied after an update; noise comes from
   the policy's own ``numpy.random.Generator`` (part of its state dict).
-* ``sample_t`` is the batch path of the learner: reparameterised actions and their log-densities, with the
-  Gaussian noise passed in (drawn by the learner from its seeded ``torch.Generator``).
+* ``sample_t`` is the batch path: reparameterised actions and their log-densities, with the Gaussian noise
+  passed in (drawn by the learner from its seeded ``torch.Generator``). The learner's actor step runs it
+  differentiated by hand, without autograd: ``forward_kept`` (the MLP, keeping each layer's input),
+  ``squash_t`` (actions and log-densities from the MLP's output), ``squash_backward`` (the gradient of the
+  actor's loss w.r.t. that output) and ``backward_kept`` (the MLP's parameter gradients).
 * ``evaluation_mode(deterministic, seed)``: ``tanh(mu)``, or samples from a separate generator.
 """
 
@@ -25,6 +28,7 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 from mushroom_rl.policy import Policy
+from torch import nn
 
 from baselines.common.networks import build_mlp
 from baselines.common.policy import _NUMPY_ACTIVATIONS, EvaluationModeMixin
@@ -67,6 +71,10 @@ class TanhGaussianPolicy(EvaluationModeMixin, Policy):
         """numpy views (no copies) of the MLP's weights, transposed for ``h @ W^T``; valid while updates are in
         place (optimiser steps, ``load_state_dict``)."""
         modules = list(self.net)
+        in_place = {nn.ReLU: torch.relu_, nn.Tanh: torch.tanh_, nn.Identity: None}
+        self._layers = [(modules[i], in_place[type(modules[i + 1])]) for i in range(0, len(modules), 2)]
+        names = {nn.ReLU: "relu", nn.Tanh: "tanh", nn.Identity: "identity"}
+        self._activation_names = [names[type(modules[i + 1])] for i in range(0, len(modules), 2)]
         self._np_layers = [(modules[i].weight.detach().numpy().T, modules[i].bias.detach().numpy(),
                             _NUMPY_ACTIVATIONS[type(modules[i + 1])]) for i in range(0, len(modules), 2)]
 
@@ -78,10 +86,72 @@ class TanhGaussianPolicy(EvaluationModeMixin, Policy):
 
     def sample_t(self, x: torch.Tensor, noise: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Reparameterised ``(a, log pi(a | s))`` for standardized inputs ``x`` and standard normal ``noise``."""
-        mean, log_std = self.mean_log_std_t(x)
+        return self.squash_t(self.net(x), noise)
+
+    def squash_t(self, out: torch.Tensor, noise: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """``(a, log pi(a | s))`` from the MLP's output ``out = [mu, log_std]`` (unclipped) and ``noise``."""
+        mean, log_std = out[:, :self.act_dim], out[:, self.act_dim:].clamp(self.log_std_min, self.log_std_max)
         u = mean + log_std.exp() * noise
         log_prob = (-0.5 * noise.square() - log_std - _HALF_LOG_2PI - 2.0 * (_LOG_2 - u - F.softplus(-2.0 * u)))
         return torch.tanh(u), log_prob.sum(dim=-1)
+
+    # ---- the learner's actor step, differentiated by hand (no autograd graph) ------------------------------
+    def forward_kept(self, x: torch.Tensor) -> tuple[torch.Tensor, list[torch.Tensor]]:
+        """``(out, inputs)``: the MLP's output for ``x`` and the input of each of its linear layers (``x`` and the
+        hidden activations), for :meth:`backward_kept`. ``x`` may end in a column of ones (``[x, 1]``): the first
+        layer's bias then enters its product. No graph is built."""
+        inputs = []
+        h = x
+        with torch.no_grad():
+            for i, (linear, activation) in enumerate(self._layers):
+                inputs.append(h)
+                if i == 0 and x.shape[1] == self.obs_dim + 1:
+                    h = torch.mm(h, torch.cat([linear.weight, linear.bias.unsqueeze(1)], 1).t())
+                else:
+                    h = torch.addmm(linear.bias, h, linear.weight.t())
+                if activation is not None:
+                    activation(h)
+        return h, inputs
+
+    def squash_backward(self, out: torch.Tensor, noise: torch.Tensor, action: torch.Tensor,
+                        log_prob_weight: torch.Tensor | float, grad_action: torch.Tensor) -> torch.Tensor:
+        """Gradient w.r.t. ``out`` (the MLP's output) of ``log_prob_weight * sum_i log pi(a_i | s_i) + sum(a *
+        grad_action)``, where ``action = a`` is :meth:`squash_t`'s for ``(out, noise)``.
+
+        With ``a = tanh(u)``, ``u = mu + std * noise``: ``d log pi / du = 2 tanh(u) = 2 a`` (the derivative of
+        ``-log(1 - tanh(u)^2)``), ``d log pi / d log_std = -1`` at fixed ``u``, ``du / d log_std = std * noise``;
+        the clip passes the gradient where ``log_std_min <= log_std <= log_std_max`` (as ``torch.clamp``)."""
+        with torch.no_grad():
+            raw_log_std = out[:, self.act_dim:]
+            grad_u = grad_action * (1.0 - action.square()) + (2.0 * log_prob_weight) * action
+            std = raw_log_std.clamp(self.log_std_min, self.log_std_max).exp()
+            grad_log_std = grad_u * std * noise - log_prob_weight
+            inside = (raw_log_std >= self.log_std_min) & (raw_log_std <= self.log_std_max)
+            grad_log_std = torch.where(inside, grad_log_std, 0.0)
+            return torch.cat([grad_u, grad_log_std], 1)
+
+    def backward_kept(self, inputs: Sequence[torch.Tensor], grad_out: torch.Tensor) -> None:
+        """Set the MLP's parameter gradients (``.grad``, replaced) for the output cotangent ``grad_out`` of the first
+        ``len(grad_out)`` rows of the :meth:`forward_kept` that gave ``inputs``."""
+        rows = grad_out.shape[0]
+        grad = grad_out
+        with torch.no_grad():
+            for i in range(len(self._layers) - 1, -1, -1):
+                linear = self._layers[i][0]
+                h = inputs[i][:rows]
+                if i == 0 and h.shape[1] == self.obs_dim + 1:  # [x, 1]: the bias gradient is the product's last column
+                    grad_weight = torch.mm(grad.t(), h)
+                    linear.weight.grad = grad_weight[:, :-1].contiguous()
+                    linear.bias.grad = grad_weight[:, -1].contiguous()
+                    continue
+                linear.weight.grad = torch.mm(grad.t(), h)
+                linear.bias.grad = grad.sum(0)
+                if i > 0:
+                    grad = torch.mm(grad, linear.weight)
+                    if self._activation_names[i - 1] == "relu":  # h is the activation's output
+                        torch.ops.aten.threshold_backward.grad_input(grad, h, 0.0, grad_input=grad)
+                    elif self._activation_names[i - 1] == "tanh":
+                        torch.ops.aten.tanh_backward.grad_input(grad, h, grad_input=grad)
 
     def parameters(self) -> Iterator[torch.nn.Parameter]:
         return self.net.parameters()

@@ -1,14 +1,18 @@
-"""Twin Q-networks evaluated in one batched pass, with a soft-updated target copy.
+"""Twin Q-networks evaluated in one batched pass, differentiated by hand, with a soft-updated target copy.
 
 The ``n`` critics ``Q_j(s, a)`` are MLPs of the same shape on ``[standardized s, a]`` whose layers are stored
 stacked (``weight: (n, fan_in, fan_out)``, ``bias: (n, 1, fan_out)``), so each layer of all critics is one
-batched matrix product (``torch.bmm``): one kernel and one autograd node per layer instead of ``n``. Hidden
-layers add the bias and apply the activation in place on the product (hot in cache), where ``baddbmm`` would
-first copy the broadcast bias into a fresh output.
+batched matrix product (``torch.bmm``): one kernel per layer instead of ``n``. Hidden layers add the bias and
+apply the activation in place on the product (hot in cache), where ``baddbmm`` would first copy the broadcast
+bias into a fresh output; an input ``[s, a, 1]`` (:meth:`TwinCritic.with_ones`) takes the first layer's bias
+into its product.
 
-:meth:`action_gradient` is the backward pass of given value gradients to the actions, written out from the
-activations :meth:`forward` kept: the actor's gradient ``d min_j Q_j(s, a) / da`` then needs no second
-autograd pass through the critics (nor their weight gradients, which the actor does not use).
+:meth:`TwinCritic.backward` is the backward pass written out from the activations :meth:`TwinCritic.forward`
+kept, without autograd: the weight gradients of a loss on the values and, from the same products, the actor's
+gradient ``d min_j Q_j(s, a) / da``. A value is a scalar, so ``dQ_j/dz`` (``z``: a layer's pre-activation) is
+propagated once per row whatever the cotangent, and the loss's and the actor's cotangents enter as row scales
+(tests/test_offpolicy.py checks it against autograd). :meth:`TwinCritic.action_gradient` is the actor's part
+alone.
 
 Weights use normc like :func:`~baselines.common.networks.build_mlp` (hidden 1.0, output 1e-3), drawn from an
 explicit generator.
@@ -49,33 +53,121 @@ class TwinCritic(nn.Module):
             biases.append(torch.zeros(self.n, 1, sizes[i + 1]))
         self.weights = nn.ParameterList([nn.Parameter(w) for w in weights])
         self.biases = nn.ParameterList([nn.Parameter(b) for b in biases])
+        # Plain lists of the same Parameters: indexing an nn.ParameterList (let alone slicing it, which builds a new
+        # module) costs more than a small kernel. Updates are in place, so the lists stay valid.
+        self._weights, self._biases = list(self.weights), list(self.biases)
 
     def forward(self, x: torch.Tensor, keep: bool = False) -> tuple[torch.Tensor, list[torch.Tensor]]:
         """``(values, hidden)``: every critic's value of each row of ``x = [s, a]`` (``(N, obs_dim + act_dim)`` ->
-        ``(n, N)``) and, with ``keep``, the hidden activations (each ``(n, N, width)``)."""
+        ``(n, N)``) and, with ``keep``, the hidden activations (each ``(n, N, width)``). ``x`` may end in a column of
+        ones (``[s, a, 1]``, see :meth:`with_ones`): the first layer's bias then enters its product."""
         activate = _ACTIVATIONS[self.activation]
+        weights, biases = self._weights, self._biases
         h = x.expand(self.n, -1, -1)
-        hidden = []
-        for weight, bias in zip(self.weights[:-1], self.biases[:-1], strict=True):
-            h = activate(torch.bmm(h, weight).add_(bias))  # bias added in cache, not copied in first
+        if x.shape[1] == weights[0].shape[1] + 1:
+            h = activate(torch.bmm(h, torch.cat([weights[0], biases[0]], 1)))
+        else:
+            h = activate(torch.bmm(h, weights[0]).add_(biases[0]))  # bias added in cache, not copied in first
+        hidden = [h]
+        for weight, bias in zip(weights[1:-1], biases[1:-1], strict=True):
+            h = activate(torch.bmm(h, weight).add_(bias))
             hidden.append(h)
-        values = torch.baddbmm(self.biases[-1], h, self.weights[-1]).squeeze(-1)
+        values = torch.baddbmm(biases[-1], h, weights[-1]).squeeze(-1)
         return values, hidden if keep else []
+
+    @staticmethod
+    def with_ones(*columns: torch.Tensor) -> torch.Tensor:
+        """``[columns..., 1]``: the input ``[s, a, 1]`` of :meth:`forward` from ``s`` and ``a`` (rows of ``(N, .)``)."""
+        return torch.cat([*columns, torch.ones(columns[0].shape[0], 1)], 1)
+
+    def backward(self, x: torch.Tensor, hidden: Sequence[torch.Tensor], grad_values: torch.Tensor,
+                 loss_start: int = 0, action_critic: torch.Tensor | None = None,
+                 action_scale: float = 1.0) -> torch.Tensor | None:
+        """The backward pass of :meth:`forward` (run on ``x`` with ``keep``, activations ``hidden``), written out.
+
+        Sets every weight's and bias's ``.grad`` (replacing it) to the gradient of ``sum_ji grad_values[j, i]
+        Q_j(x_{loss_start + i})``. With ``action_critic`` (``(M,)`` critic indices for the last ``M`` rows of ``x``) it
+        also returns ``action_scale * dQ_c(s, a)/da`` with ``c = action_critic[i]`` for each of those rows
+        (``(M, act_dim)``): the actor's gradient of ``min_j Q_j`` where ``action_critic`` is the argmin.
+
+        A critic's value is a scalar, so the gradient of any cotangent ``c_ji`` w.r.t. a pre-activation ``z`` of row
+        ``i`` is ``c_ji P_ji`` with ``P = dQ_j/dz`` the same for every cotangent: ``P`` goes down the layers once per
+        row (a loss on the values of ``[s, a~]`` and the actor share those rows: one pass serves both) and the
+        cotangents enter as row scales, ``dW = (c * input)^T P``, ``db = c^T P``. Action rows outside the loss's
+        rows go down only the critic the actor differentiates (:meth:`_selected_action_gradient`)."""
+        weights, biases = self._weights, self._biases
+        n_loss, n_total = grad_values.shape[1], x.shape[0]
+        n_actions = 0 if action_critic is None else action_critic.shape[0]
+        first_action = n_total - n_actions
+        shared = n_actions > 0 and first_action < loss_start + n_loss  # action rows among the loss's: P serves both
+        start = min(loss_start, first_action) if shared else loss_start  # P is needed for rows [start:stop]
+        stop = n_total if shared else loss_start + n_loss
+        loss = slice(loss_start - start, loss_start - start + n_loss)
+        rows, kept = x[start:stop], [h[:, start:stop] for h in hidden]
+        with torch.no_grad():
+            scale = grad_values.unsqueeze(-1)
+            # as c^T h, not h^T c: the row-vector product reads h along its rows (~4x faster)
+            weights[-1].grad = torch.bmm(grad_values.unsqueeze(1), kept[-1][:, loss]).view(weights[-1].shape)
+            biases[-1].grad = grad_values.sum(1).view(self.n, 1, 1)
+            p = self._activation_backward(weights[-1].transpose(1, 2), kept[-1])  # dQ/dz of the last hidden layer
+            for i in range(len(kept) - 1, 0, -1):
+                weights[i].grad = torch.bmm((kept[i - 1][:, loss] * scale).transpose(1, 2), p[:, loss])
+                biases[i].grad = torch.bmm(grad_values.unsqueeze(1), p[:, loss])
+                p = torch.bmm(p, weights[i].transpose(1, 2))
+                self._activation_backward(p, kept[i - 1], out=p)
+            n_in = weights[0].shape[1]
+            if rows.shape[1] == n_in + 1:  # [s, a, 1]: the bias gradient is the product's last row
+                grad = torch.bmm((rows[loss] * scale).transpose(1, 2), p[:, loss])
+                weights[0].grad, biases[0].grad = grad[:, :n_in].contiguous(), grad[:, n_in:].contiguous()
+            else:
+                weights[0].grad = torch.bmm((rows[loss] * scale).transpose(1, 2), p[:, loss])
+                biases[0].grad = torch.bmm(grad_values.unsqueeze(1), p[:, loss])
+            if not n_actions:
+                return None
+            if not shared:
+                return self._selected_action_gradient(hidden, first_action, action_critic, action_scale)
+            grad = torch.bmm(p[:, p.shape[1] - n_actions:], weights[0][:, self.obs_dim:].transpose(1, 2))
+            index = action_critic.view(1, n_actions, 1).expand(1, n_actions, grad.shape[2])
+            return grad.gather(0, index).squeeze(0).mul_(action_scale)
+
+    def _selected_action_gradient(self, hidden: Sequence[torch.Tensor], first: int, critic: torch.Tensor,
+                                  scale: float) -> torch.Tensor:
+        """``scale * dQ_c(s, a)/da`` for rows ``first + i`` with ``c = critic[i]``: each row down its critic only
+        (gathered per critic: half the products of going down both)."""
+        weights = self._weights
+        grad = torch.empty(critic.shape[0], weights[0].shape[1] - self.obs_dim)
+        for j in range(self.n):
+            index = (critic == j).nonzero().squeeze(1)
+            if not index.numel():
+                continue
+            rows = index + first
+            kept = [h[j].index_select(0, rows) for h in hidden]
+            p = self._activation_backward(weights[-1][j].t(), kept[-1])
+            for i in range(len(kept) - 1, 0, -1):
+                p = torch.mm(p, weights[i][j].t())
+                self._activation_backward(p, kept[i - 1], out=p)
+            grad.index_copy_(0, index, torch.mm(p, weights[0][j, self.obs_dim:].t()).mul_(scale))
+        return grad
 
     def action_gradient(self, hidden: Sequence[torch.Tensor], grad_values: torch.Tensor) -> torch.Tensor:
         """``sum_j grad_values[j] * dQ_j(s, a)/da`` (``(N, act_dim)``) for the rows whose hidden activations (as kept
         by :meth:`forward`) are ``hidden``: the backward pass written out, no graph, current weights."""
         with torch.no_grad():
-            grad = grad_values.unsqueeze(-1) * self.weights[-1].transpose(1, 2)  # d/d(last hidden activation)
-            for i in range(len(hidden) - 1, -1, -1):
-                h = hidden[i]
-                if self.activation == "relu":  # d/d(pre-activation): relu's backward, grad where h > 0
-                    grad = torch.ops.aten.threshold_backward(grad, h, 0.0)
-                else:
-                    grad = grad * (1.0 - h * h)
-                weight = self.weights[i] if i > 0 else self.weights[0][:, self.obs_dim:]
-                grad = torch.bmm(grad, weight.transpose(1, 2))
-            return grad.sum(0)
+            grad = self._activation_backward(grad_values.unsqueeze(-1) * self._weights[-1].transpose(1, 2), hidden[-1])
+            for i in range(len(hidden) - 1, 0, -1):
+                grad = self._activation_backward(torch.bmm(grad, self._weights[i].transpose(1, 2)), hidden[i - 1])
+            return torch.bmm(grad, self._weights[0][:, self.obs_dim:].transpose(1, 2)).sum(0)
+
+    def _activation_backward(self, grad: torch.Tensor, h: torch.Tensor,
+                             out: torch.Tensor | None = None) -> torch.Tensor:
+        """The gradient w.r.t. the pre-activation from ``grad`` w.r.t. the activation ``h`` (broadcast to ``h``)."""
+        if self.activation == "relu":  # relu's backward: grad where h > 0
+            if out is None:
+                return torch.ops.aten.threshold_backward(grad, h, 0.0)
+            return torch.ops.aten.threshold_backward.grad_input(grad, h, 0.0, grad_input=out)
+        if out is None:  # tanh's: grad (1 - h^2)
+            return torch.ops.aten.tanh_backward(grad, h)
+        return torch.ops.aten.tanh_backward.grad_input(grad, h, grad_input=out)
 
     def make_target(self) -> TwinCritic:
         """A frozen copy (no gradients) to be moved towards this critic by :meth:`soft_update`."""
@@ -86,4 +178,4 @@ class TwinCritic(nn.Module):
     def soft_update(self, target: TwinCritic, tau: float) -> None:
         """``target <- target + tau * (self - target)``, all tensors in one fused call."""
         with torch.no_grad():
-            torch._foreach_lerp_(list(target.parameters()), list(self.parameters()), tau)
+            torch._foreach_lerp_(target._weights + target._biases, self._weights + self._biases, tau)
