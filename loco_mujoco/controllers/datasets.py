@@ -31,7 +31,7 @@ from tqdm import tqdm
 
 from loco_mujoco.controllers.quadruped import QuadrupedController, TrotSettings
 from loco_mujoco.datasets.trajectory import TrajectoryDataset
-from loco_mujoco.metrics.contacts import foot_contacts, stance_sliding
+from loco_mujoco.metrics.contacts import contact_figures
 
 VERSION = 1  # bump when the controller, the recipes or the stored layout change
 RAMP_UP_S = 2.0  # tracking figures leave out the start from standing
@@ -135,18 +135,11 @@ def motion_quality(model: mujoco.MjModel, foot_geoms: np.ndarray, foot_radius: f
         data.qpos[:] = qpos[t]
         mujoco.mj_kinematics(model, data)
         feet[t] = data.geom_xpos[foot_geoms]
-    sole = feet[..., 2] - foot_radius
-    contact = foot_contacts(sole, contact_height)
-    sliding = stance_sliding(np.gradient(feet[..., :2], 1.0 / frequency, axis=0), contact)
-    has_contact = contact.any(axis=1)
     yaw = _yaws(qpos[:, 3:7])
     forward = qvel[:, 0] * np.cos(yaw) + qvel[:, 1] * np.sin(yaw)
     return {
-        "foot_sliding_mps": float(sliding.mean()) if sliding.size else 0.0,
-        "foot_sliding_p95_mps": float(np.quantile(sliding, 0.95)) if sliding.size else 0.0,
-        "ground_penetration_max_m": float(max(0.0, -sole.min())),
-        "stance_float_mean_m": float(sole.min(axis=1)[has_contact].mean()) if has_contact.any() else 0.0,
-        "flight_fraction": float(1.0 - has_contact.mean()),
+        **contact_figures(feet[..., 2] - foot_radius, np.gradient(feet[..., :2], 1.0 / frequency, axis=0),
+                          contact_height),
         "mean_forward_speed_mps": float(forward.mean()),
         "mean_speed_mps": float(np.linalg.norm(qvel[:, :2], axis=1).mean()),
         "joint_limit_clipped_fraction": 0.0,

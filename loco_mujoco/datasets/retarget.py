@@ -19,7 +19,7 @@ from loco_mujoco.datasets.foot_lock import FootLockSettings, foot_targets, is_wa
 from loco_mujoco.datasets.human_gait import SIDES, HumanGait
 from loco_mujoco.datasets.motion import Motion
 from loco_mujoco.datasets.resample import resample_angles, resample_quat
-from loco_mujoco.metrics.contacts import foot_contacts, stance_sliding
+from loco_mujoco.metrics.contacts import contact_figures, foot_contacts
 from loco_mujoco.models.posture import apply_joint_couplings
 from loco_mujoco.rotations import quat_to_mat
 
@@ -325,13 +325,9 @@ def motion_quality(qpos: np.ndarray, feet: _Feet, frequency: float, contact_heig
     """
     dt = 1.0 / frequency
     pts = feet.sole_points(qpos)  # (N, feet, points, 3)
-    ground = pts[..., 2].min(axis=2)
-    contact = foot_contacts(ground, contact_height)
-    has_contact = contact.any(axis=1)
     lowest = pts[..., 2].argmin(axis=2)
     vel = np.gradient(pts[..., :2], dt, axis=0)
     contact_vel = vel[np.arange(len(qpos))[:, None], np.arange(pts.shape[1])[None], lowest]
-    sliding = stance_sliding(contact_vel, contact)
     root_v = np.gradient(qpos[:, :2], dt, axis=0)
     heading = Rotation.from_quat(qpos[:, [4, 5, 6, 3]]).apply([1.0, 0.0, 0.0])[:, :2]
     yaw = uniform_filter1d(np.unwrap(np.arctan2(heading[:, 1], heading[:, 0])), size=max(1, int(round(frequency))),
@@ -342,11 +338,7 @@ def motion_quality(qpos: np.ndarray, feet: _Feet, frequency: float, contact_heig
     travel = (qpos[2 * half:, :2] - qpos[:-2 * half, :2]) / (2 * half * dt)
     along = np.stack([np.cos(yaw[half:len(qpos) - half]), np.sin(yaw[half:len(qpos) - half])], axis=1)
     return {
-        "foot_sliding_mps": float(sliding.mean()) if sliding.size else 0.0,
-        "foot_sliding_p95_mps": float(np.quantile(sliding, 0.95)) if sliding.size else 0.0,
-        "ground_penetration_max_m": float(max(0.0, -ground.min())),
-        "stance_float_mean_m": float(ground.min(axis=1)[has_contact].mean()) if has_contact.any() else 0.0,
-        "flight_fraction": float(1.0 - has_contact.mean()),
+        **contact_figures(pts[..., 2].min(axis=2), contact_vel, contact_height),
         "mean_forward_speed_mps": float(np.mean(np.sum(root_v * heading, axis=1))),
         "mean_speed_mps": float(np.mean(np.linalg.norm(travel, axis=1))),
         "mean_travel_forward_mps": float(np.mean(np.sum(travel * along, axis=1))),

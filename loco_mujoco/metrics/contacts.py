@@ -28,3 +28,21 @@ def stance_sliding(contact_point_velocity_xy: np.ndarray, contacts: np.ndarray) 
         raise ValueError(f"contact_point_velocity_xy shape {v.shape} does not match contacts shape {c.shape}: "
                          "expected (T, feet, 2) and (T, feet)")
     return np.linalg.norm(v, axis=2)[c]
+
+
+def contact_figures(sole_height: np.ndarray, contact_point_velocity_xy: np.ndarray,
+                    contact_height: float) -> dict[str, float]:
+    """A trajectory's contact quality from each foot's lowest sole height (T, feet) and that point's horizontal
+    velocity (T, feet, 2): sliding in contact (mean, 95th percentile), deepest penetration, mean height of the
+    lowest foot while one touches, and the fraction of frames with no foot down."""
+    h = np.asarray(sole_height, dtype=np.float64)
+    contact = foot_contacts(h, contact_height)
+    sliding = stance_sliding(contact_point_velocity_xy, contact)
+    has_contact = contact.any(axis=1)
+    return {
+        "foot_sliding_mps": float(sliding.mean()) if sliding.size else 0.0,
+        "foot_sliding_p95_mps": float(np.quantile(sliding, 0.95)) if sliding.size else 0.0,
+        "ground_penetration_max_m": float(max(0.0, -h.min())),
+        "stance_float_mean_m": float(h.min(axis=1)[has_contact].mean()) if has_contact.any() else 0.0,
+        "flight_fraction": float(1.0 - has_contact.mean()),
+    }
