@@ -223,17 +223,19 @@ def retarget_human(gait: HumanGait, model: mujoco.MjModel, spec: HumanoidRetarge
     scale = robot_leg / gait.leg_length
     # the flight margin is a length of the human body: it scales with the robot's legs like the motion does
     source_z = scale * gait.pelvis_pos[:, 2]
-    mapped, quality = _ground_and_odometry(qpos, feet, source_z, gait.frequency, spec.contact_height,
-                                           FLIGHT_MARGIN * scale)
-    walking = is_walking(quality["mean_speed_mps"], robot_leg) if walk is None else walk
+    mapped = _ground_and_odometry(qpos, feet, source_z, gait.frequency, spec.contact_height,
+                                  FLIGHT_MARGIN * scale)
+    walking = is_walking(travel_speed(mapped, gait.frequency), robot_leg) if walk is None else walk
     if walking:  # people do not fly when they walk: the root stays on the legs
-        mapped, quality = _ground_and_odometry(qpos, feet, source_z, gait.frequency, spec.contact_height, np.inf)
+        mapped = _ground_and_odometry(qpos, feet, source_z, gait.frequency, spec.contact_height, np.inf)
+    worst = None
     if foot_lock:
         qpos, worst = _lock_feet(model, mapped, feet, foot_bodies, gait.frequency, walking, scale, lock_settings)
-        quality = motion_quality(qpos, feet, gait.frequency, spec.contact_height)
-        quality["foot_lock_error_max_m"] = worst
     else:
         qpos = mapped
+    quality = motion_quality(qpos, feet, gait.frequency, spec.contact_height)
+    if worst is not None:
+        quality["foot_lock_error_max_m"] = worst
     quality["walking"] = float(walking)
     quality["joint_limit_clipped_fraction"] = clipped / max(total, 1)
     quality["leg_length_scale"] = scale
@@ -256,7 +258,8 @@ def retarget_quadruped(motion: Motion, model: mujoco.MjModel, spec: QuadrupedRet
     qpos[:, 3:7] = resample_quat(motion.time, motion.root_quat, time)
     root_z = resample_angles(motion.time, motion.root_pos[:, 2:3], time)[:, 0]
     feet = _Feet(model, spec.feet)
-    qpos, quality = _ground_and_odometry(qpos, feet, root_z, frequency, spec.contact_height)
+    qpos = _ground_and_odometry(qpos, feet, root_z, frequency, spec.contact_height)
+    quality = motion_quality(qpos, feet, frequency, spec.contact_height)
     quality["joint_limit_clipped_fraction"] = clipped / max(n * len(motion.joint_names), 1)
     quality["leg_length_scale"] = 1.0
     qvel = velocities(model, qpos, frequency)
@@ -273,8 +276,7 @@ def _standing_root_height(model: mujoco.MjModel, feet: _Feet, base_qpos: np.ndar
 
 
 def _ground_and_odometry(qpos: np.ndarray, feet: _Feet, source_root_z: np.ndarray, frequency: float,
-                         contact_height: float, flight_margin: float = FLIGHT_MARGIN,
-                         ) -> tuple[np.ndarray, dict[str, float]]:
+                         contact_height: float, flight_margin: float = FLIGHT_MARGIN) -> np.ndarray:
     """Set the root position from the legs: lowest foot on the ground, flight from the source, stance odometry."""
     dt = 1.0 / frequency
     qpos = qpos.copy()
@@ -312,7 +314,19 @@ def _ground_and_odometry(qpos: np.ndarray, feet: _Feet, source_root_z: np.ndarra
     root_xy = np.concatenate([np.zeros((1, 2)), np.cumsum(0.5 * (root_v[1:] + root_v[:-1]) * dt, axis=0)])
     qpos[:, :2] = root_xy
     qpos[:, 2] = root_z
-    return qpos, motion_quality(qpos, feet, frequency, contact_height)
+    return qpos
+
+
+def _travel(qpos: np.ndarray, frequency: float) -> tuple[np.ndarray, int]:
+    """The root's displacement velocity over 1 s (the whole clip if shorter), so that the sway within a stride
+    is not speed, and the half window in frames."""
+    half = max(1, min(int(round(frequency / 2)), (len(qpos) - 1) // 2))
+    return (qpos[2 * half:, :2] - qpos[:-2 * half, :2]) / (2 * half * (1.0 / frequency)), half
+
+
+def travel_speed(qpos: np.ndarray, frequency: float) -> float:
+    """Mean speed of the root's travel (see :func:`_travel`), m/s."""
+    return float(np.mean(np.linalg.norm(_travel(qpos, frequency)[0], axis=1)))
 
 
 def motion_quality(qpos: np.ndarray, feet: _Feet, frequency: float, contact_height: float) -> dict[str, float]:
@@ -333,14 +347,12 @@ def motion_quality(qpos: np.ndarray, feet: _Feet, frequency: float, contact_heig
     yaw = uniform_filter1d(np.unwrap(np.arctan2(heading[:, 1], heading[:, 0])), size=max(1, int(round(frequency))),
                            mode="nearest")
     heading /= np.linalg.norm(heading, axis=1, keepdims=True)
-    # Travel: displacement over 1 s (the whole clip if shorter), so that the sway within a stride is not speed.
-    half = max(1, min(int(round(frequency / 2)), (len(qpos) - 1) // 2))
-    travel = (qpos[2 * half:, :2] - qpos[:-2 * half, :2]) / (2 * half * dt)
+    travel, half = _travel(qpos, frequency)
     along = np.stack([np.cos(yaw[half:len(qpos) - half]), np.sin(yaw[half:len(qpos) - half])], axis=1)
     return {
         **contact_figures(pts[..., 2].min(axis=2), contact_vel, contact_height),
         "mean_forward_speed_mps": float(np.mean(np.sum(root_v * heading, axis=1))),
-        "mean_speed_mps": float(np.mean(np.linalg.norm(travel, axis=1))),
+        "mean_speed_mps": travel_speed(qpos, frequency),
         "mean_travel_forward_mps": float(np.mean(np.sum(travel * along, axis=1))),
         "heading_change_deg": float(np.degrees(yaw.max() - yaw.min())),
     }
