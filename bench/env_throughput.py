@@ -19,6 +19,7 @@ import mujoco
 import numpy as np
 
 from loco_mujoco import LocoEnv
+from loco_mujoco.core import implicit_reuse
 
 DEFAULT_ENVS = ["UnitreeH1.walk", "Talos.walk", "UnitreeA1.simple", "Atlas.walk", "HumanoidTorque.walk",
                 "HumanoidTorque4Ages.walk.all", "HumanoidMuscle.walk", "HumanoidMuscle4Ages.walk.all"]
@@ -44,6 +45,8 @@ def run_env(env: LocoEnv, actions: np.ndarray) -> tuple[float, list[int], np.nda
 def run_raw(env: LocoEnv, ctrls: np.ndarray, resets: list[int]) -> tuple[float, np.ndarray]:
     """Seconds for the same control sequence as raw mj_step calls with the same resets."""
     m, d, n_sub = env.model, env.data, env._n_substeps
+    # the physics env.step runs: mj_step, or with the implicit factorisation reused (core/implicit_reuse.py)
+    step = implicit_reuse.step_reusing_factor if env.reuse_implicit_factor else mujoco.mj_step
     start_qpos = env._init_qpos.copy()
     reset_after = np.zeros(len(ctrls), dtype=bool)
     reset_after[resets] = True
@@ -53,7 +56,7 @@ def run_raw(env: LocoEnv, ctrls: np.ndarray, resets: list[int]) -> tuple[float, 
     t0 = time.perf_counter()
     for i in range(len(ctrls)):
         d.ctrl[:] = ctrls[i]
-        mujoco.mj_step(m, d, n_sub)
+        step(m, d, n_sub)
         if reset_after[i]:
             mujoco.mj_resetData(m, d)
             d.qpos[:] = start_qpos
@@ -62,8 +65,10 @@ def run_raw(env: LocoEnv, ctrls: np.ndarray, resets: list[int]) -> tuple[float, 
     return elapsed, d.qpos.copy()
 
 
-def measure(name: str, steps: int, repeats: int, seed: int = 0) -> dict:
+def measure(name: str, steps: int, repeats: int, seed: int = 0, reuse_implicit_factor: bool | None = None) -> dict:
     env = LocoEnv.make(name, seed=seed)
+    if reuse_implicit_factor is not None:
+        env.reuse_implicit_factor = reuse_implicit_factor
     rng = np.random.default_rng(seed)
     actions = rng.uniform(-1.0, 1.0, size=(steps, env.info.action_space.shape[0]))
     ctrls = env.action_to_ctrl(actions)  # what env.step writes to data.ctrl
@@ -92,7 +97,10 @@ def main() -> None:
     parser.add_argument("--env", nargs="*", default=DEFAULT_ENVS)
     parser.add_argument("--steps", type=int, default=5000)
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--reuse-implicit-factor", choices=("on", "off"), default=None,
+                        help="override the environments' REUSE_IMPLICIT_FACTOR (core/implicit_reuse.py)")
     args = parser.parse_args()
+    reuse = None if args.reuse_implicit_factor is None else args.reuse_implicit_factor == "on"
     print(f"# {platform.processor() or platform.machine()}, mujoco {mujoco.__version__}, "
           f"{args.steps} steps, best of {args.repeats}")
     header = (f"| {'environment':<28} | {'env steps/s':>11} | {'raw steps/s':>11} | {'env/raw cost':>12} | "
@@ -100,7 +108,7 @@ def main() -> None:
     print(header)
     print("|" + "|".join("-" * (len(c)) for c in header.split("|")[1:-1]) + "|")
     for name in args.env:
-        r = measure(name, args.steps, args.repeats)
+        r = measure(name, args.steps, args.repeats, reuse_implicit_factor=reuse)
         ref = f"{r['ref']:,}" if r["ref"] else "-"
         speedup = f"{r['env_sps'] / r['ref']:.2f}" if r["ref"] else "-"
         raw = f"{r['raw_sps']:>11,.0f}" if np.isfinite(r["raw_sps"]) else f"{'-':>11}"

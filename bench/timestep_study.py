@@ -106,7 +106,8 @@ def errors(traj: np.ndarray, ref: np.ndarray) -> tuple[float, float]:
 
 
 def bang_bang_max_speed(name: str, control_steps: int, integrator: int | None = None, dt: float | None = None,
-                        coarse: bool = True, seed: int = 0) -> tuple[float, float, str, float]:
+                        coarse: bool = True, seed: int = 0,
+                        reuse_implicit_factor: bool | None = None) -> tuple[float, float, str, float]:
     """Hinge speeds under bang-bang excitation: each control step every actuator gets -1 or +1 at random (a muscle
     fully relaxed or fully excited), held for the control step; a fall resets the episode.
 
@@ -118,6 +119,8 @@ def bang_bang_max_speed(name: str, control_steps: int, integrator: int | None = 
     cls = env_class(name)
     dt = cls.TIMESTEP if dt is None else dt
     env = make(name, cls.INTEGRATOR if integrator is None else integrator, dt, coarse=coarse)
+    if reuse_implicit_factor is not None:  # default: the environment's REUSE_IMPLICIT_FACTOR
+        env.reuse_implicit_factor = reuse_implicit_factor
     m, d = env.model, env.data
     hinges = np.array([m.jnt_dofadr[j] for j in range(m.njnt) if m.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE])
     rng = np.random.default_rng(seed)
@@ -189,17 +192,24 @@ def main() -> None:
     parser.add_argument("--bang-steps", type=int, default=10_000, help="control steps of bang-bang excitation")
     parser.add_argument("--bang-bang", action="store_true",
                         help="only the bang-bang speed check of each environment's default settings")
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0], help="--bang-bang: one run per seed")
+    parser.add_argument("--reuse-implicit-factor", choices=("on", "off"), default=None,
+                        help="--bang-bang: override the environment's REUSE_IMPLICIT_FACTOR (core/implicit_reuse.py)")
     args = parser.parse_args()
+    reuse = None if args.reuse_implicit_factor is None else args.reuse_implicit_factor == "on"
     if args.bang_bang:
         failed = False
-        for name in args.env or ["HumanoidMuscle.walk"]:
+        for name, seed in ((n, s) for n in args.env or ["HumanoidMuscle.walk"] for s in args.seeds):
             cls = env_class(name)
             t0 = time.perf_counter()
-            worst, p99, joint, inside = bang_bang_max_speed(name, args.bang_steps)
+            worst, p99, joint, inside = bang_bang_max_speed(name, args.bang_steps, seed=seed,
+                                                            reuse_implicit_factor=reuse)
             ok = worst <= SPEED_BOUND
             failed |= not ok
+            reused = cls.REUSE_IMPLICIT_FACTOR if reuse is None else reuse
             print(f"{name} ({mujoco.mjtIntegrator(cls.INTEGRATOR).name}, {cls.TIMESTEP * 1e3:g} ms x "
-                  f"{cls.N_SUBSTEPS}): {args.bang_steps:,} bang-bang control "
+                  f"{cls.N_SUBSTEPS}{', factorisation reused' if reused else ''}, seed {seed}): "
+                  f"{args.bang_steps:,} bang-bang control "
                   f"steps: largest hinge speed {worst:.1f} rad/s ({joint}), 99th percentile {p99:.1f} rad/s, "
                   f"{'within' if ok else 'ABOVE'} the {SPEED_BOUND:g} rad/s bound; inside the control steps "
                   f"(every physics step) {inside:.1f} rad/s ({time.perf_counter() - t0:.0f} s)",

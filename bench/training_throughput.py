@@ -164,9 +164,11 @@ def profile_run(env: lm.LocoEnv, variant: tuple[str, int], warmup: int, steps: i
 
 # ---- off-policy ------------------------------------------------------------------------------------------
 OFF_ENV = "UnitreeH1.walk.perfect"
-OFF_VARIANTS = ("sqil", "iq_learn", "lsiq", "sac")
+OFF_VARIANTS = ("sqil", "iq_learn", "lsiq", "sac", "iq_learn:1", "lsiq:1", "sqil:1")
+# "<algo>:1": one critic instead of SAC's two, as the IQ-Learn and LS-IQ reference implementations have it
 OFF_LABELS = {"sqil": "ours, SQIL", "iq_learn": "ours, IQ-Learn", "lsiq": "ours, LS-IQ",
-              "sac": "Mushroom-RL SAC (unmodified)"}
+              "sac": "Mushroom-RL SAC (unmodified)", "iq_learn:1": "ours, IQ-Learn, 1 critic",
+              "lsiq:1": "ours, LS-IQ, 1 critic", "sqil:1": "ours, SQIL, 1 critic"}
 HIDDEN, BATCH, ACTOR_LR, CRITIC_LR, TAU = (256, 256), 256, 3e-5, 3e-4, 0.005
 
 
@@ -193,9 +195,11 @@ def build_offpolicy(env: lm.LocoEnv, variant: str, warmup: int) -> tuple[Core, f
                     batch_size=2 * BATCH, initial_replay_size=warmup, max_replay_size=1_000_000,
                     warmup_transitions=warmup, tau=TAU, lr_alpha=3e-4, log_std_min=-5, log_std_max=2)
     else:
-        agent = make_agent(variant, env, {"actor_hidden": HIDDEN, "critic_hidden": HIDDEN, "batch_size": BATCH,
-                                          "actor_lr": ACTOR_LR, "critic_lr": CRITIC_LR, "tau": TAU,
-                                          "initial_samples": warmup + 1, "n_threads": torch.get_num_threads()},
+        algo, _, n_critics = variant.partition(":")
+        agent = make_agent(algo, env, {"actor_hidden": HIDDEN, "critic_hidden": HIDDEN, "batch_size": BATCH,
+                                       "actor_lr": ACTOR_LR, "critic_lr": CRITIC_LR, "tau": TAU,
+                                       "initial_samples": warmup + 1, "n_threads": torch.get_num_threads(),
+                                       "n_critics": int(n_critics or 2)},
                            seed=0)
     env.seed(0)
     core = Core(agent, env)
@@ -286,7 +290,7 @@ def main() -> None:
     parser.add_argument("--off-steps", type=int, default=1_000, help="timed steps (= updates) per off-policy run")
     parser.add_argument("--off-warmup", type=int, default=2_000, help="collection steps before the updates start")
     parser.add_argument("--off-threads", type=int, default=1, help="torch threads of the off-policy runs")
-    parser.add_argument("--off-variants", nargs="+", choices=OFF_VARIANTS, default=list(OFF_VARIANTS))
+    parser.add_argument("--off-variants", nargs="+", choices=OFF_VARIANTS, default=list(OFF_VARIANTS[:4]))
     args = parser.parse_args()
     if args.section in ("all", "onpolicy"):
         onpolicy_section(args)

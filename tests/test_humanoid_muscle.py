@@ -276,3 +276,43 @@ def test_missing_myo_sim_is_reported_by_package_name(monkeypatch):
     monkeypatch.setitem(sys.modules, "myo_sim", None)  # makes `import myo_sim` fail
     with pytest.raises(ModuleNotFoundError, match="myo-sim"):
         myo_human.myo_sim_models_dir()
+
+
+def test_reusing_the_implicit_factorisation_is_off_by_default_and_close_to_mj_step(env):
+    """Opt-in: physics step 2 reuses step 1's factorisation of M - h D (core/implicit_reuse.py). The same state and
+    controls give a control step within a small distance of mj_step's, but not identical (the matrix is stale)."""
+    assert not env.reuse_implicit_factor  # off by default: it loses the 25 rad/s bang-bang bound on some seeds
+    m, d = env.model, env.data
+    rng = np.random.default_rng(0)
+    env.reset()
+    for _ in range(20):
+        env.step(rng.uniform(-1, 1, m.nu))
+    d.ctrl[:] = rng.uniform(0, 1, m.nu)
+    spec = mujoco.mjtState.mjSTATE_INTEGRATION  # state, controls and the solver's warm start
+    start = np.empty(mujoco.mj_stateSize(m, spec))
+    mujoco.mj_getState(m, d, start, spec)
+
+    def control_step(reuse: bool) -> np.ndarray:
+        mujoco.mj_setState(m, d, start, spec)
+        env.reuse_implicit_factor = reuse
+        try:
+            env.step_physics()
+        finally:
+            env.reuse_implicit_factor = False
+        return np.concatenate([d.qpos, d.qvel, d.act])
+
+    exact, reused = control_step(False), control_step(True)
+    assert not np.array_equal(exact, reused)
+    assert np.abs(exact[:m.nq] - reused[:m.nq]).max() < 1e-3  # rad or m
+    assert np.abs(exact[m.nq:m.nq + m.nv] - reused[m.nq:m.nq + m.nv]).max() < 0.2  # rad/s
+    assert np.array_equal(control_step(True), reused)  # deterministic
+
+
+def test_reusing_the_factorisation_needs_an_implicit_integrator():
+    from loco_mujoco.core import implicit_reuse
+
+    model = mujoco.MjModel.from_xml_string("<mujoco><option integrator='Euler'/><worldbody/></mujoco>")
+    with pytest.raises(ValueError, match="needs integrator mjINT_IMPLICIT or mjINT_IMPLICITFAST"):
+        implicit_reuse.check_supported(model)
+    model.opt.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    implicit_reuse.check_supported(model)  # libmujoco exports what it needs

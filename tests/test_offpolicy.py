@@ -231,7 +231,8 @@ def autograd_update(agent):
 
 
 @pytest.mark.parametrize(("algorithm", "extra"), [("sqil", {}), ("iq_learn", {}), ("lsiq", {"learn_alpha": True}),
-                                                   ("iq_learn", {"loss_mode": "v0", "activation": "tanh"})])
+                                                   ("iq_learn", {"loss_mode": "v0", "activation": "tanh"}),
+                                                   ("iq_learn", {"n_critics": 1}), ("lsiq", {"n_critics": 1})])
 def test_update_matches_the_autograd_update(env, algorithm, extra):
     agent = make_agent(algorithm, env, config={**SMALL, **extra}, seed=0)
     learn(agent, env, 150)  # the optimisers' states exist
@@ -282,6 +283,19 @@ def test_offpolicy_family_config():
     assert run.train.n_steps_per_fit == 1 and run.train.expert_actions == "auto"
     assert run.agent.reg_mult == 0.5 and run.agent.batch_size == 256 and run.agent.actor_lr == 3e-5
     assert load_run_config("HumanoidMuscle.walk", "sqil").agent.from_observations
+    # the references' choices: LS-IQ's humanoid temperature 0.1, IQ-Learn's single critic
+    assert run.agent.alpha == 0.1 and run.agent.n_critics == 2
+    iq = load_run_config("UnitreeH1.walk", "iq_learn").agent
+    assert iq.n_critics == 1 and iq.alpha == 0.1 and iq.loss_mode == "v0"
+
+
+def test_one_critic_has_one_set_of_weights(env):
+    agent = make_agent("iq_learn", env, config={**SMALL, "n_critics": 1}, seed=0)
+    assert agent.critic.n == 1 and all(w.shape[0] == 1 for w in agent.critic.weights)
+    learn(agent, env, 200)
+    assert agent.updates == 101 and all(np.isfinite(v) for v in agent.last_stats.values())
+    with pytest.raises(ValueError, match="n_critics must be >= 1"):
+        make_agent("iq_learn", env, config={**SMALL, "n_critics": 0})
 
 
 @pytest.mark.parametrize(("algorithm", "extra"), [("lsiq", {"learn_alpha": True}), ("iq_learn", {}), ("sqil", {}),

@@ -66,6 +66,7 @@ class OffPolicyConfig(AgentConfig):
 
     actor_hidden: tuple[int, ...] = (256, 256)
     critic_hidden: tuple[int, ...] = (256, 256)
+    n_critics: int = 2  # the min over 2 critics against overestimation (SAC); the IQ-Learn/LS-IQ references use 1
     activation: str = "relu"
     actor_lr: float = 3e-5
     critic_lr: float = 3e-4
@@ -87,7 +88,7 @@ class OffPolicyConfig(AgentConfig):
     n_threads: int | None = None  # torch threads; None: default_num_threads()
 
     def validate(self) -> None:
-        for name in ("batch_size", "replay_capacity", "initial_samples", "updates_per_step"):
+        for name in ("batch_size", "replay_capacity", "initial_samples", "updates_per_step", "n_critics"):
             if int(getattr(self, name)) < 1:
                 raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
         for name in ("actor_lr", "critic_lr", "alpha", "alpha_lr", "obs_clip", "inverse_model_lr"):
@@ -182,7 +183,7 @@ class OffPolicyImitation(Agent):
         self.obs_standardizer.update(expert.states[:, known])
         policy = TanhGaussianPolicy(obs_mask, act_dim, self.obs_standardizer, config.actor_hidden, config.activation,
                                     config.log_std_min, config.log_std_max, seed=seeds[2], generator=self._generator)
-        self.critic = TwinCritic(obs_dim, act_dim, config.critic_hidden, config.activation, n=2,
+        self.critic = TwinCritic(obs_dim, act_dim, config.critic_hidden, config.activation, n=config.n_critics,
                                  generator=self._generator)
         self.target_critic = self.critic.make_target()
         self.actor_optimizer = torch.optim.Adam(policy.parameters(), lr=config.actor_lr, fused=True)

@@ -23,7 +23,7 @@ from mushroom_rl.utils.mujoco import ObservationType
 from mushroom_rl.utils.spaces import Box
 
 from loco_mujoco._compat import MuJoCo
-from loco_mujoco.core import parameters
+from loco_mujoco.core import implicit_reuse, parameters
 from loco_mujoco.core import rewards as rw
 from loco_mujoco.core.embodiment_model import (
     LOAD_BODY,
@@ -93,6 +93,10 @@ class LocoEnv(TrajectoryMixin, EmbodimentModelMixin, MuJoCo):
     TIMESTEP: ClassVar[float] = DEFAULT_TIMESTEP
     N_SUBSTEPS: ClassVar[int] = DEFAULT_N_SUBSTEPS
     INTEGRATOR: ClassVar[int] = DEFAULT_INTEGRATOR
+    # Implicit integrators: build and factorise M - h D once per control step and reuse it in the other physics
+    # steps (core/implicit_reuse.py); worth it where D is costly (muscles). Instances may switch it off with
+    # `env.reuse_implicit_factor = False` for MuJoCo's exact mj_step.
+    REUSE_IMPLICIT_FACTOR: ClassVar[bool] = False
     RETARGET: ClassVar[HumanoidRetarget | QuadrupedRetarget | None] = None  # how motion maps on: real datasets
     OLD_FORMAT_JOINTS: ClassVar[Mapping[str, str]] = {}  # original LocoMuJoCo joint names -> ours, for its files
     SIZES: ClassVar[tuple[str, ...]] = ()  # body sizes (modes) whose datasets mode "all" joins
@@ -206,6 +210,9 @@ class LocoEnv(TrajectoryMixin, EmbodimentModelMixin, MuJoCo):
         # ourselves (see step) and leave other MuJoCo users in the process undisturbed.
         mujoco.set_mju_user_warning(previous_hook)
         self._model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
+        self.reuse_implicit_factor = self.REUSE_IMPLICIT_FACTOR
+        if self.reuse_implicit_factor:
+            implicit_reuse.check_supported(self._model)
 
         self._setup_observation(joint_names)
         self._randomizer = None
@@ -473,7 +480,7 @@ class LocoEnv(TrajectoryMixin, EmbodimentModelMixin, MuJoCo):
         action = self._check_action(action)
         np.clip(action, -1.0, 1.0, out=action)
         self._ctrl_view[:] = self.action_to_ctrl(action)
-        mujoco.mj_step(self._model, self._data, self._n_substeps)
+        self.step_physics()
         obs = self._build_observation()
         diverged = not _sum_is_finite(obs)
         if diverged:
@@ -490,6 +497,14 @@ class LocoEnv(TrajectoryMixin, EmbodimentModelMixin, MuJoCo):
         }
         self._obs = obs
         return obs, reward, absorbing, info
+
+    def step_physics(self) -> None:
+        """Advance the physics by one control step (``n_substeps`` physics steps) with the current ``ctrl``."""
+        m, d = self._model, self._data
+        if self.reuse_implicit_factor and m.opt.integrator in implicit_reuse.IMPLICIT_INTEGRATORS:
+            implicit_reuse.step_reusing_factor(m, d, self._n_substeps)
+        else:
+            mujoco.mj_step(m, d, self._n_substeps)
 
     def _check_action(self, action: Any) -> np.ndarray:
         a = np.array(action, dtype=np.float64)  # a copy: the caller's array is never modified
