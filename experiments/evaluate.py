@@ -1,13 +1,16 @@
 """Evaluate a trained agent under the evaluation protocol, or list every task's reference returns.
 
     python experiments/evaluate.py runs/UnitreeH1.walk_vail/checkpoint.pt [--metrics] [--record] [--json F]
+    python experiments/evaluate.py --pretrained UnitreeH1.walk vail [SEED] [--metrics] [--record] [--json F]
     python experiments/evaluate.py --references [TASK ...]
 
 The protocol (loco_mujoco.evaluation.protocol): 50 episodes from dataset start states drawn with seed 12345,
 the deterministic policy (``--stochastic`` adds the stochastic one). Every figure is a mean with a 95%
 bootstrap interval and an interquartile mean (IQM). The normalised score puts a uniformly random policy at 0
 and the expert (the task reward its dataset frames earn, over the horizon) at 100, under the run's own env
-settings. ``--metrics`` adds trajectory distances, gait and state-distribution metrics beside the expert's;
+settings. ``--pretrained TASK ALGO [SEED]`` evaluates a pretrained agent (``pretrained/``, training seed 0
+unless given; ``--seed`` stays the evaluation seed) the same way, and prints the score on its card beside.
+``--metrics`` adds trajectory distances, gait and state-distribution metrics beside the expert's;
 ``--record`` writes an H.264 mp4 of the first episode beside a translucent replay of the reference motion.
 """
 
@@ -17,7 +20,10 @@ import argparse
 import json
 import math
 import sys
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # run from a checkout without installing
 
@@ -94,9 +100,65 @@ def print_metrics(m: dict) -> None:
         print(f"  {key:<22}{value:12.3f}{expert:12.3f}  ({DISTRIBUTION_UNITS[key]})")
 
 
+@dataclass
+class Subject:
+    """What is evaluated: a checkpoint's agent or a pretrained agent, built only once the outputs are checked."""
+
+    task: str
+    algorithm: str
+    seed: int
+    steps: int
+    env: dict[str, Any]
+    out_dir: Path  # default folder of the video
+    header: str
+    build: Callable[[], Any]  # -> an agent (or policy) that evaluate_agent takes
+    extra: dict[str, Any]  # more for the results file
+
+
+def checkpoint_subject(checkpoint: str) -> Subject:
+    """The agent of a training checkpoint (or its run directory)."""
+    from baselines.training import build, load_checkpoint, run_config_from_checkpoint
+
+    state = load_checkpoint(checkpoint)
+    run = run_config_from_checkpoint(state)
+
+    def make_agent() -> Any:
+        _, agent = build(run)
+        agent.load_state_dict(state["agent"])
+        return agent
+
+    return Subject(run.task, run.algorithm, run.seed, int(state["steps"]), dict(run.env),
+                   Path(checkpoint) if Path(checkpoint).is_dir() else Path(checkpoint).parent,
+                   f"{run.algorithm} on {run.task}, seed {run.seed}: epoch {state['epoch']}, "
+                   f"{state['steps']:,} training steps", make_agent, {})
+
+
+def pretrained_subject(values: list[str]) -> Subject:
+    """A pretrained agent from ``[TASK, ALGO]`` or ``[TASK, ALGO, SEED]``."""
+    from baselines.pretrained import load
+
+    if len(values) not in (2, 3):
+        raise ValueError(f"--pretrained takes TASK ALGO [SEED], got {len(values)} values: {' '.join(values)}")
+    try:
+        seed = int(values[2]) if len(values) == 3 else 0
+    except ValueError:
+        raise ValueError(f"--pretrained SEED must be an integer, got {values[2]!r}") from None
+    policy = load(values[0], values[1], seed)
+    card = policy.card
+    score = card.get("evaluation", {}).get("score")
+    on_card = (f"; its card: score {format_summary(score)} ({card['evaluation']['protocol']['episodes']} episodes)"
+               if score else "; its card has no evaluation")
+    return Subject(policy.task, policy.algorithm, policy.seed, int(card.get("steps", 0)), policy.env_kwargs, Path("."),
+                   f"pretrained {policy.algorithm} on {policy.task}, seed {policy.seed} ({policy.export.path}): "
+                   f"{card.get('steps', 0):,} training steps{on_card}", lambda: policy,
+                   {"pretrained": str(policy.export.path), "card_evaluation": card.get("evaluation", {})})
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("checkpoint", nargs="?", help="checkpoint.pt (or its run directory)")
+    parser.add_argument("--pretrained", nargs="+", metavar="TASK ALGO [SEED]",
+                        help="evaluate the pretrained agent of TASK and ALGO (training seed SEED, default 0)")
     parser.add_argument("--episodes", type=int, default=protocol.EPISODES)
     parser.add_argument("--seed", type=int, default=protocol.SEED, help=f"evaluation seed (default {protocol.SEED})")
     parser.add_argument("--stochastic", action="store_true", help="also evaluate the stochastic policy")
@@ -117,22 +179,22 @@ def main(argv: list[str] | None = None) -> int:
         if args.json:
             Path(args.json).write_text(json.dumps(rows, indent=1))
         return 0
-    if not args.checkpoint:
-        parser.error("give a checkpoint to evaluate, or --references")
+    if not args.checkpoint and not args.pretrained:
+        parser.error("give a checkpoint to evaluate, --pretrained TASK ALGO [SEED], or --references")
+    if args.checkpoint and args.pretrained:
+        parser.error("give either a checkpoint or --pretrained, not both")
 
     from baselines.common.evaluation import evaluate_agent
-    from baselines.training import build, load_checkpoint, run_config_from_checkpoint, writable_dir
+    from baselines.training import writable_dir
 
     try:
-        state = load_checkpoint(args.checkpoint)
+        subject = pretrained_subject(args.pretrained) if args.pretrained else checkpoint_subject(args.checkpoint)
     except (FileNotFoundError, ValueError) as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
-    run = run_config_from_checkpoint(state)
-    run_dir = Path(args.checkpoint) if Path(args.checkpoint).is_dir() else Path(args.checkpoint).parent
     video = None
     if args.record is not None:
-        default = run_dir / f"{run.task}_{run.algorithm}_seed{run.seed}_episode0.mp4"
+        default = subject.out_dir / f"{subject.task}_{subject.algorithm}_seed{subject.seed}_episode0.mp4"
         video = Path(args.record) if args.record else default
     try:  # every output checked before the work: nothing is overwritten unasked, nothing fails at the end
         for out in [p for p in (Path(args.json) if args.json else None, video) if p is not None]:
@@ -142,17 +204,17 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
-    _, agent = build(run)
-    agent.load_state_dict(state["agent"])
-    env = protocol.evaluation_env(run.task, run.env, seed=args.seed)  # the real task, whatever data it trained on
-    print(f"{run.algorithm} on {run.task}, seed {run.seed}: epoch {state['epoch']}, {state['steps']:,} training steps")
-    refs = references(run.task, run.env, progress=True)
-    eval_task, eval_kwargs = protocol.evaluation_task(run.task, run.env)
+    agent = subject.build()
+    env = protocol.evaluation_env(subject.task, subject.env, seed=args.seed)  # the real task, whatever its data
+    print(subject.header)
+    refs = references(subject.task, subject.env, progress=True)
+    eval_task, eval_kwargs = protocol.evaluation_task(subject.task, subject.env)
     print(f"references ({eval_task}, {', '.join(f'{k}={v}' for k, v in eval_kwargs.items())}): expert R "
           f"{refs.expert_return:.1f}, random R {refs.random_return:.1f} (L {refs.random_length:.1f}), "
           f"zero action R {refs.zero_return:.1f}, hold pose R {refs.hold_return:.1f}")
 
-    results: dict = {"task": run.task, "algorithm": run.algorithm, "seed": run.seed, "steps": state["steps"],
+    results: dict = {"task": subject.task, "algorithm": subject.algorithm, "seed": subject.seed,
+                     "steps": subject.steps, **subject.extra,
                      "protocol": {"episodes": args.episodes, "seed": args.seed}, "references": refs.__dict__}
     evaluations = {"deterministic": evaluate_agent(agent, env, args.episodes, True, args.seed,
                                                    record=args.metrics or args.record is not None, progress=True)}

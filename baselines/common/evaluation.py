@@ -17,9 +17,11 @@ def evaluate_agent(agent: Any, env: Any, n_episodes: int, deterministic: bool = 
                    record: bool = False, progress: bool = False) -> Evaluation:
     """The agent's episodes under the protocol (``env`` re-seeded with ``seed``); ``record`` keeps the states.
 
-    ``agent.policy`` must offer ``evaluation_mode`` (:class:`~baselines.common.policy.GaussianPolicy`).
+    ``agent`` is a Mushroom-RL agent whose ``policy`` offers ``evaluation_mode`` (the baselines' policies), or a
+    policy offering ``evaluation_mode`` and ``draw_action`` itself (a pretrained agent,
+    :class:`~baselines.pretrained.PretrainedPolicy`).
     """
-    policy = agent.policy
+    policy = getattr(agent, "policy", agent)
     if not hasattr(policy, "evaluation_mode"):
         raise TypeError(f"{type(policy).__name__} has no evaluation_mode; use baselines.common.GaussianPolicy")
     with policy.evaluation_mode(deterministic=deterministic, seed=seed):
