@@ -278,10 +278,10 @@ def test_missing_myo_sim_is_reported_by_package_name(monkeypatch):
         myo_human.myo_sim_models_dir()
 
 
-def test_reusing_the_implicit_factorisation_is_off_by_default_and_close_to_mj_step(env):
-    """Opt-in: physics step 2 reuses step 1's factorisation of M - h D (core/implicit_reuse.py). The same state and
-    controls give a control step within a small distance of mj_step's, but not identical (the matrix is stale)."""
-    assert not env.reuse_implicit_factor  # off by default: it loses the 25 rad/s bang-bang bound on some seeds
+def test_reusing_the_implicit_factorisation_is_the_default_and_close_to_mj_step(env):
+    """Physics step 2 reuses step 1's factorisation of M - h D (core/implicit_reuse.py). The same state and controls
+    give a control step within a small distance of mj_step's, but not identical (the matrix is stale)."""
+    assert env.reuse_implicit_factor and HumanoidMuscle.REUSE_IMPLICIT_FACTOR
     m, d = env.model, env.data
     rng = np.random.default_rng(0)
     env.reset()
@@ -298,7 +298,7 @@ def test_reusing_the_implicit_factorisation_is_off_by_default_and_close_to_mj_st
         try:
             env.step_physics()
         finally:
-            env.reuse_implicit_factor = False
+            env.reuse_implicit_factor = True
         return np.concatenate([d.qpos, d.qvel, d.act])
 
     exact, reused = control_step(False), control_step(True)
