@@ -20,6 +20,7 @@ import os
 import shutil
 import time
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -133,12 +134,15 @@ class Trainer:
     weights, optimisers, standardizers and discriminator are loaded, the step count continues from there, and
     the new configuration (e.g. a larger batch per fit) applies from then on. The source is recorded in
     ``run.init_from``. ``n_threads`` replaces a resumed run's torch thread count (results then match the
-    uninterrupted run only to floating-point reduction order).
+    uninterrupted run only to floating-point reduction order). ``on_progress(steps)``, if given, hears the steps
+    done so far after every fit (gradient steps: every 100), e.g. to show a sweep's trials live.
     """
 
     def __init__(self, run: RunConfig, out_dir: str | Path, resume: bool = False, progress: bool = True,
-                 init_from: str | Path | None = None, n_threads: int | None = None):
+                 init_from: str | Path | None = None, n_threads: int | None = None,
+                 on_progress: Callable[[int], None] | None = None):
         self.out_dir = Path(out_dir)
+        self.on_progress = on_progress
         self.checkpoint_path = self.out_dir / CHECKPOINT
         state = warm = None
         if resume and init_from is not None:
@@ -191,6 +195,7 @@ class Trainer:
         core = Core(self.agent, self.env, callbacks_fit=[self._on_fit])
         self._bar = tqdm(total=run.train.n_steps, initial=self.steps, unit="step", dynamic_ncols=True,
                          disable=not self.progress, desc=f"{run.algorithm} {run.task}")
+        self._live_steps = self.steps
         try:
             while self.steps < run.train.n_steps:
                 n = min(run.train.epoch_steps, run.train.n_steps - self.steps)
@@ -220,12 +225,19 @@ class Trainer:
     def _learn(self, core: Core, n: int) -> None:
         """``n`` steps of training: environment steps for on-policy agents, gradient steps for offline ones."""
         if getattr(self.agent, "offline", False):
-            self.agent.fit_offline(n, callback=self._bar.update)
+            self.agent.fit_offline(n, callback=self._advance)
         else:
             core.learn(n_steps=n, n_steps_per_fit=self.run.train.n_steps_per_fit, quiet=True)
 
     def _on_fit(self, dataset: list) -> None:
-        self._bar.update(self.run.train.n_steps_per_fit)
+        self._advance(self.run.train.n_steps_per_fit)
+
+    def _advance(self, n: int) -> None:
+        """``n`` more steps of the epoch in progress: the bar moves and ``on_progress`` hears the total."""
+        self._bar.update(n)
+        self._live_steps += n
+        if self.on_progress is not None:
+            self.on_progress(self._live_steps)
 
     def evaluate(self) -> dict[str, float]:
         """Deterministic (and optionally stochastic) evaluation on the evaluation env, re-seeded each time."""

@@ -12,12 +12,21 @@ from __future__ import annotations
 import argparse
 import signal
 import sys
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # run from a checkout without installing
 
 from baselines import ALGORITHMS  # noqa: E402
-from baselines.config import CONFIG_DIR, ConfigError, format_config, load_run_config, parse_overrides  # noqa: E402
+from baselines.config import (  # noqa: E402
+    CONFIG_DIR,
+    ConfigError,
+    RunConfig,
+    format_config,
+    load_run_config,
+    parse_overrides,
+)
 from baselines.training import Trainer  # noqa: E402
 
 
@@ -48,39 +57,59 @@ def _stop_on_sigterm(signum: int, frame: object) -> None:
     raise KeyboardInterrupt
 
 
+def run_dir(root: str | Path, task: str, algorithm: str, seed: int) -> Path:
+    """Where a run lives under ``root``: ``<root>/<task>/<algorithm>/seed<N>`` (launch.py's default, and sweep.py's)."""
+    return Path(root) / task / algorithm / f"seed{seed}"
+
+
+def resolve_run(task: str, algorithm: str, seed: int = 0, steps: int | None = None, epoch_steps: int | None = None,
+                threads: int | None = None, overrides: dict[str, dict[str, Any]] | None = None,
+                config_dir: str | Path = CONFIG_DIR, note: Callable[[str], None] | None = None) -> RunConfig:
+    """The run configuration the command line asks for: the YAML layers, then ``overrides`` (``--set``), then
+    ``steps``, ``epoch_steps`` and ``threads``; ``train.n_steps`` rounded up to a multiple of
+    ``train.n_steps_per_fit`` (every epoch ends on a fit), which ``note`` is told. Shared by launch.py and
+    sweep.py so that a sweep trial is exactly the run launch.py would start. Raises ``ConfigError`` or
+    ``ValueError`` naming what is wrong."""
+    for name, value in (("steps", steps), ("epoch_steps", epoch_steps), ("threads", threads)):
+        if value is not None and value < 1:
+            raise ValueError(f"--{name.replace('_', '-')} must be at least 1, got {value}")
+    merged = {section: dict(values) for section, values in (overrides or {}).items()}
+    for section, key, value in (("train", "n_steps", steps), ("train", "epoch_steps", epoch_steps),
+                                ("agent", "n_threads", threads)):
+        if value is not None:
+            merged.setdefault(section, {})[key] = value
+    run = load_run_config(task, algorithm, seed=seed, config_dir=config_dir, overrides=merged)
+    per_fit = run.train.n_steps_per_fit
+    if run.train.n_steps % per_fit:
+        rounded = -(-run.train.n_steps // per_fit) * per_fit
+        if note is not None:
+            note(f"{run.train.n_steps:,} steps is not a multiple of train.n_steps_per_fit ({per_fit:,}); "
+                 f"training {rounded:,} steps")
+        run.train.n_steps = rounded
+    return run
+
+
+def _note(text: str) -> None:
+    print(f"note: {text}", file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
-    for name in ("steps", "epoch_steps", "threads"):
-        value = getattr(args, name)
-        if value is not None and value < 1:
-            print(f"error: --{name.replace('_', '-')} must be at least 1, got {value}", file=sys.stderr)
-            return 2
     if args.resume and (args.set or args.epoch_steps is not None):
         print("error: --resume continues with the checkpoint's own configuration (only --steps may extend it); "
               "to change settings, start a new run from it with --init-from CHECKPOINT --set ...", file=sys.stderr)
         return 2
     try:
-        overrides = parse_overrides(args.set)
-        if args.steps is not None:
-            overrides["train"]["n_steps"] = args.steps
-        if args.epoch_steps is not None:
-            overrides["train"]["epoch_steps"] = args.epoch_steps
-        if args.threads is not None:
-            overrides["agent"]["n_threads"] = args.threads
-        run = load_run_config(args.env, args.algo, seed=args.seed, config_dir=args.config_dir, overrides=overrides)
+        run = resolve_run(args.env, args.algo, seed=args.seed, steps=args.steps, epoch_steps=args.epoch_steps,
+                          threads=args.threads, overrides=parse_overrides(args.set), config_dir=args.config_dir,
+                          note=_note)
     except (ConfigError, ValueError) as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
-    per_fit = run.train.n_steps_per_fit
-    if run.train.n_steps % per_fit:  # every epoch ends on a fit: round up, and say so
-        rounded = -(-run.train.n_steps // per_fit) * per_fit
-        print(f"note: {run.train.n_steps:,} steps is not a multiple of train.n_steps_per_fit ({per_fit:,}); "
-              f"training {rounded:,} steps", file=sys.stderr)
-        run.train.n_steps = rounded
     if args.print_config:
         print(format_config(run))
         return 0
-    out = Path(args.out or Path("runs") / args.env / args.algo / f"seed{args.seed}")
+    out = Path(args.out) if args.out else run_dir("runs", args.env, args.algo, args.seed)
     try:
         trainer = Trainer(run, out, resume=args.resume, progress=not args.quiet, init_from=args.init_from,
                           n_threads=args.threads)

@@ -1,0 +1,241 @@
+"""Train tasks x algorithms x seeds on Ray: ``python experiments/sweep.py --tasks UnitreeH1.walk --algos vail bc``.
+
+Each trial is the run ``launch.py`` would start (same configuration layers, same Trainer) in
+``<out>/<task>/<algo>/seed<N>``, with ``--cpus-per-trial`` Ray CPUs and ``--threads`` torch threads (1 and 1 by
+default). The same keys can come from a YAML file (``--config sweep.yaml``; the command line wins).
+
+Running the same sweep again skips finished trials (their checkpoint reached the requested steps), resumes the
+interrupted ones from their checkpoints, and for a finished sweep reports "0 trials run" and changes no file;
+``--steps`` larger than before extends every trial. A folder holding a run with another configuration is
+refused, never overwritten. A live table shows each trial (pending, running with its step count, finished,
+failed with the error's last line); the exit status is 1 if any trial failed.
+
+Ray starts locally with ``--num-cpus`` CPUs (default: all) and nothing to set up; ``--address HOST:PORT`` joins a
+cluster started with ``ray start`` (see the README's "Sweeps": the out folder must be on storage every machine
+sees at the same path). Ray is an optional dependency: ``pip install -e ".[sweep]"``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import signal
+import socket
+import sys
+from pathlib import Path
+from types import ModuleType
+
+REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO))  # run from a checkout without installing
+
+from baselines.config import ConfigError  # noqa: E402
+from experiments.sweep_plan import RunDirConflict, Trial, inspect_run_dir, last_score, make_trials  # noqa: E402
+from experiments.sweep_spec import SweepSpecError, build_spec, read_sweep_file  # noqa: E402
+from experiments.sweep_status import LiveTable, ProgressBoard, TrialStatus  # noqa: E402
+from experiments.sweep_trial import TrialOutcome, run_trial  # noqa: E402
+
+REFRESH_S = 2.0  # how often the live table asks the trials for their step counts
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--config", metavar="SWEEP.yaml", help="a YAML file with the keys below (tasks, algos, "
+                                                               "seeds, steps, out, set, cpus_per_trial, threads)")
+    parser.add_argument("--tasks", nargs="+", help="task names, e.g. UnitreeH1.walk UnitreeH1.run")
+    parser.add_argument("--algos", nargs="+", help="algorithms, e.g. vail bc")
+    parser.add_argument("--seeds", nargs="+", type=int, help="seeds (default: 0)")
+    parser.add_argument("--steps", type=int, help="training steps of every trial (default: each config's "
+                                                  "train.n_steps); more than before extends finished trials")
+    parser.add_argument("--out", help="root folder of the trials (default: runs)")
+    parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                        help="override one config value in every trial (repeatable), e.g. --set agent.max_kl=0.01")
+    parser.add_argument("--cpus-per-trial", type=float, help="Ray CPUs each trial holds (default: 1)")
+    parser.add_argument("--threads", type=int, help="torch threads per trial (default: 1)")
+    parser.add_argument("--num-cpus", type=int, help="CPUs of the local Ray instance (default: all of this machine)")
+    parser.add_argument("--address", help="join this Ray cluster (HOST:PORT of `ray start --head`, or auto) "
+                                          "instead of starting a local one")
+    return parser.parse_args(argv)
+
+
+def require_ray() -> ModuleType:
+    """The ``ray`` module, or ``ImportError`` saying how to install it."""
+    try:
+        import ray
+    except ImportError:
+        raise ImportError('experiments/sweep.py runs its trials on Ray, which is not installed: '
+                          'pip install -e ".[sweep]" (or pip install "ray>=2.60")') from None
+    return ray
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    try:
+        ray = require_ray()
+        if args.address and args.num_cpus is not None:
+            raise SweepSpecError("--num-cpus sizes a local Ray instance; a cluster joined with --address has the "
+                                 "CPUs its `ray start` commands gave it")
+        if args.num_cpus is not None and args.num_cpus < 1:
+            raise SweepSpecError(f"--num-cpus must be at least 1, got {args.num_cpus}")
+        spec = build_spec(read_sweep_file(args.config) if args.config else {},
+                          {"tasks": args.tasks, "algos": args.algos, "seeds": args.seeds, "steps": args.steps,
+                           "out": args.out, "set": args.set, "cpus_per_trial": args.cpus_per_trial,
+                           "threads": args.threads})
+        spec.out = spec.out.resolve()  # the same folder for workers on other machines (shared storage)
+        notes: dict[str, None] = {}
+        trials = make_trials(spec, note=lambda text: notes.setdefault(text))
+    except (ImportError, SweepSpecError, ConfigError, ValueError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    for text in notes:
+        print(f"note: {text}", file=sys.stderr)
+
+    rows, todo, conflicts = _plan(trials)
+    if conflicts:
+        for text in conflicts:
+            print(f"error: {text}", file=sys.stderr)
+        print(f"error: {len(conflicts)} of {len(trials)} trials conflict with existing runs; nothing was started",
+              file=sys.stderr)
+        return 2
+    done = len(trials) - len(todo)
+    resumed = sum(row.steps > 0 for _, row in todo)
+    print(f"sweep of {len(trials)} trials in {spec.out}: {len(todo)} to run ({resumed} resumed), "
+          f"{done} already finished", flush=True)
+    if not todo:
+        LiveTable(interactive=False).close(rows)
+        print(f"0 trials run: all {done} trials had already finished")
+        return 0
+
+    previous_handler = signal.signal(signal.SIGTERM, _stop_on_sigterm)
+    started_ray = not ray.is_initialized()  # a caller's Ray instance (e.g. the tests') is used and left running
+    try:
+        if started_ray:
+            try:
+                _init_ray(ray, args)
+            except ConnectionError as err:
+                print(f"error: {err}: check the address that `ray start --head` printed; Ray's clusters require "
+                      "their token by default: RAY_AUTH_MODE=token here, with the head's ~/.ray/auth_token copied "
+                      "to this machine (or RAY_AUTH_TOKEN set)", file=sys.stderr)
+                return 2
+        outcomes = _run(ray, spec.cpus_per_trial, todo, rows)
+    except KeyboardInterrupt:
+        print("\ninterrupted: every trial keeps its last checkpoint; run the same command again to resume",
+              file=sys.stderr)
+        return 130
+    finally:
+        if started_ray and ray.is_initialized():
+            ray.shutdown()
+        signal.signal(signal.SIGTERM, previous_handler)
+    return _summary(outcomes, done)
+
+
+def _plan(trials: list[Trial]) -> tuple[list[TrialStatus], list[tuple[Trial, TrialStatus]], list[str]]:
+    """Every trial's row, the trials still to run (new or resumed) and the folders that hold another run."""
+    rows, todo, conflicts = [], [], []
+    for trial in trials:
+        try:
+            state = inspect_run_dir(trial)
+        except RunDirConflict as err:
+            conflicts.append(str(err))
+            continue
+        row = TrialStatus(trial.key, trial.run.train.n_steps, steps=state.steps)
+        if state.kind == "finished":
+            row.state, row.score = "done before", last_score(trial.out_dir)
+        else:
+            todo.append((trial, row))
+            row.note = "resumes its checkpoint" if state.kind == "resume" else ""
+        rows.append(row)
+    return rows, todo, conflicts
+
+
+def _init_ray(ray: ModuleType, args: argparse.Namespace) -> None:
+    """A quiet local Ray instance (no dashboard, worker output kept in Ray's log files), or the cluster at
+    ``--address``; workers import this checkout first (PYTHONPATH), as the driver does."""
+    path = os.pathsep.join(p for p in (str(REPO), os.environ.get("PYTHONPATH")) if p)
+    options = {"logging_level": logging.ERROR, "log_to_driver": False,
+               "runtime_env": {"env_vars": {"PYTHONPATH": path}}}
+    if args.address:
+        _check_reachable(args.address)
+        ray.init(address=args.address, **options)
+    else:
+        ray.init(num_cpus=args.num_cpus or os.cpu_count(), include_dashboard=False, **options)
+
+
+def _check_reachable(address: str) -> None:
+    """Raise ``ConnectionError`` at once when nothing listens at ``HOST:PORT`` (Ray itself retries for minutes)."""
+    host, sep, port = address.rpartition(":")
+    if not sep or not port.isdigit() or "://" in address:
+        return  # "auto", or a ray:// client address: left to Ray
+    try:
+        socket.create_connection((host, int(port)), timeout=10).close()
+    except OSError as err:
+        raise ConnectionError(f"nothing answers at {address} ({err.strerror or err})") from None
+
+
+def _run(ray: ModuleType, cpus_per_trial: float, todo: list[tuple[Trial, TrialStatus]],
+         rows: list[TrialStatus]) -> list[TrialOutcome]:
+    """Every trial of ``todo`` as a Ray task; the table is redrawn until the last one ends."""
+    board = ray.remote(num_cpus=0)(ProgressBoard).remote()
+    task = ray.remote(run_trial).options(num_cpus=cpus_per_trial, max_retries=0)
+    pending = {task.remote(trial, board): row for trial, row in todo}
+    table, outcomes = LiveTable(), []
+    try:
+        table.update(rows)
+        while pending:
+            ray.wait(list(pending), num_returns=1, timeout=REFRESH_S)
+            ready, _ = ray.wait(list(pending), num_returns=len(pending), timeout=0)
+            for ref in ready:
+                row = pending.pop(ref)
+                outcomes.append(_outcome(ray, ref, row.key))
+                _apply(row, outcomes[-1])
+            for key, steps in ray.get(board.snapshot.remote()).items():
+                for row in rows:
+                    if row.key == key and row.state in ("pending", "running"):
+                        row.state, row.steps, row.note = "running", steps, ""
+            if pending:  # the last table is close()'s
+                table.update(rows)
+    except KeyboardInterrupt:
+        for ref in pending:
+            ray.cancel(ref)
+        raise
+    finally:
+        table.close(rows)
+    return outcomes
+
+
+def _outcome(ray: ModuleType, ref: object, key: str) -> TrialOutcome:
+    """The trial's own outcome, or a failure when Ray lost it (a worker killed, a node gone)."""
+    try:
+        return ray.get(ref)
+    except ray.exceptions.RayError as err:
+        lines = [line.strip() for line in str(err).splitlines() if line.strip()]
+        return TrialOutcome(key, "failed", error=lines[-1] if lines else type(err).__name__, details=str(err))
+
+
+def _apply(row: TrialStatus, outcome: TrialOutcome) -> None:
+    row.state, row.steps = outcome.state, max(row.steps, outcome.steps)
+    if outcome.state == "finished":
+        row.score, row.note = outcome.score, f"{outcome.seconds:.0f} s"
+    else:
+        row.note = outcome.error
+
+
+def _summary(outcomes: list[TrialOutcome], done_before: int) -> int:
+    """Failed trials' tracebacks and the trials' warnings on stderr, then the counts; 1 if any trial failed."""
+    failed = [o for o in outcomes if o.state == "failed"]
+    for o in failed:
+        print(f"\n{o.key} failed:\n{o.details.rstrip()}", file=sys.stderr)
+    for o in outcomes:
+        for text in o.warnings:
+            print(f"warning ({o.key}): {text}", file=sys.stderr)
+    print(f"{len(outcomes)} trials run: {len(outcomes) - len(failed)} finished, {len(failed)} failed; "
+          f"{done_before} had already finished")
+    return 1 if failed else 0
+
+
+def _stop_on_sigterm(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
+if __name__ == "__main__":
+    sys.exit(main())

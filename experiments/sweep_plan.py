@@ -1,0 +1,161 @@
+"""A sweep's trials and what each one's folder already holds: nothing, an interrupted run, or a finished one.
+
+A trial is the run launch.py would start for one (task, algorithm, seed), in ``<out>/<task>/<algo>/seed<N>``.
+Its folder decides what happens: a checkpoint that reached the requested steps is finished (skipped, nothing
+is read but the checkpoint), one short of them is resumed with the Trainer's ``resume``, and an empty or
+missing folder starts a new run. A folder whose run has another configuration (any value except
+``train.n_steps`` and the torch threads, which a resume may change) is never touched: the trial is refused
+with the keys that differ.
+"""
+
+from __future__ import annotations
+
+import csv
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from baselines.config import RunConfig
+from baselines.training import CHECKPOINT, RUN_FILES, load_checkpoint, run_config_from_checkpoint
+from experiments.launch import resolve_run, run_dir
+from experiments.sweep_spec import SweepSpec
+
+# What a resume may change, so what a sweep re-run may differ in; ``sources`` are paths, not values.
+NOT_COMPARED = ("train.n_steps", "agent.n_threads", "sources")
+# A run killed before its first checkpoint leaves only these behind; it is started again from scratch.
+UNSTARTED_FILES = ("config.yaml", "progress.csv", "tensorboard")
+
+
+class RunDirConflict(ValueError):
+    """A trial's folder holds a run that is not this trial's; it is left alone."""
+
+
+@dataclass
+class Trial:
+    """One run of the sweep; ``run`` is launch.py's resolved configuration for it."""
+
+    run: RunConfig
+    out_dir: Path
+    threads: int
+
+    @property
+    def key(self) -> str:
+        return f"{self.run.task}/{self.run.algorithm}/seed{self.run.seed}"
+
+
+@dataclass
+class DirState:
+    """What a trial's folder holds: ``new`` (nothing), ``unstarted`` (a run killed before its first
+    checkpoint), ``resume`` (a checkpoint short of the steps) or ``finished``; ``steps`` already trained."""
+
+    kind: str
+    steps: int = 0
+
+
+def make_trials(spec: SweepSpec, note: Any = None) -> list[Trial]:
+    """Every (task, algorithm, seed) of ``spec`` with its resolved configuration; raises ``ConfigError`` or
+    ``ValueError`` on the first that cannot be configured (nothing has started yet)."""
+    trials = []
+    for task in spec.tasks:
+        for algo in spec.algos:
+            for seed in spec.seeds:
+                run = resolve_run(task, algo, seed=seed, steps=spec.steps, threads=spec.threads,
+                                  overrides=spec.overrides, note=note)
+                trials.append(Trial(run=run, out_dir=run_dir(spec.out, task, algo, seed), threads=spec.threads))
+    return trials
+
+
+def inspect_run_dir(trial: Trial) -> DirState:
+    """What ``trial``'s folder holds; raises :class:`RunDirConflict` if it holds another run (never changed)."""
+    out = trial.out_dir
+    if out.exists() and not out.is_dir():
+        raise RunDirConflict(f"{out} is a file, not a run folder; move it away to run {trial.key}")
+    checkpoint = out / CHECKPOINT
+    if checkpoint.exists():
+        try:
+            state = load_checkpoint(checkpoint)
+            saved = run_config_from_checkpoint(state)
+        except (ValueError, KeyError, TypeError) as err:
+            raise RunDirConflict(f"{trial.key}: {checkpoint} cannot be read ({err}); the sweep leaves it alone: "
+                                 "move the folder away or choose another --out") from None
+        _refuse_other_config(trial, saved.to_dict(), checkpoint)
+        steps = int(state["steps"])
+        return DirState("finished" if steps >= trial.run.train.n_steps else "resume", steps)
+    found = [name for name in RUN_FILES if (out / name).exists()]
+    if not found:
+        return DirState("new")
+    if set(found) <= set(UNSTARTED_FILES) and (out / "config.yaml").exists() and not _has_rows(out / "progress.csv"):
+        saved = _config_yaml(out / "config.yaml", trial)
+        _refuse_other_config(trial, saved, out / "config.yaml")
+        return DirState("unstarted")
+    raise RunDirConflict(f"{trial.key}: {out} holds another run's files ({', '.join(found)}) but no checkpoint; "
+                         "the sweep never overwrites a run: move the folder away or choose another --out")
+
+
+def clear_unstarted(trial: Trial) -> None:
+    """Remove what a run killed before its first checkpoint left (its config, empty log, TensorBoard folder)."""
+    for name in UNSTARTED_FILES:
+        path = trial.out_dir / name
+        if path.is_dir():
+            shutil.rmtree(path)
+        elif path.exists():
+            path.unlink()
+
+
+def config_differences(saved: dict[str, Any], wanted: dict[str, Any]) -> list[str]:
+    """``key: saved -> wanted`` for every compared value where two ``RunConfig.to_dict()`` differ."""
+    a, b = _flatten(saved), _flatten(wanted)
+    return [f"{key}: {a.get(key, '(unset)')!r} in the folder, {b.get(key, '(unset)')!r} in this sweep"
+            for key in sorted(set(a) | set(b)) if a.get(key) != b.get(key)]
+
+
+def last_score(out_dir: Path) -> float | None:
+    """The normalised score of the last evaluation in ``out_dir/progress.csv`` (None without one)."""
+    rows = _rows(out_dir / "progress.csv")
+    try:
+        return float(rows[-1]["score"]) if rows else None
+    except (KeyError, ValueError):
+        return None
+
+
+def _refuse_other_config(trial: Trial, saved: dict[str, Any], where: Path) -> None:
+    diffs = config_differences(saved, trial.run.to_dict())
+    if diffs:
+        shown = "; ".join(diffs[:5]) + (f"; and {len(diffs) - 5} more" if len(diffs) > 5 else "")
+        raise RunDirConflict(f"{trial.key}: {where} is a run with another configuration ({shown}). The sweep never "
+                             "overwrites a run: choose another --out, or move that folder away to rerun it")
+
+
+def _flatten(config: dict[str, Any]) -> dict[str, Any]:
+    flat = {}
+    for key, value in config.items():
+        if key in ("env", "train", "agent") and isinstance(value, dict):
+            flat.update({f"{key}.{k}": v for k, v in value.items()})
+        else:
+            flat[key] = value
+    return {k: v for k, v in flat.items() if k not in NOT_COMPARED}
+
+
+def _config_yaml(path: Path, trial: Trial) -> dict[str, Any]:
+    """A run folder's ``config.yaml`` as ``RunConfig.to_dict()`` (normalised like a checkpoint's)."""
+    try:
+        data = yaml.safe_load(path.read_text())
+        data.pop("dataset", None)
+        return run_config_from_checkpoint({"run_config": data}).to_dict()
+    except (yaml.YAMLError, AttributeError, KeyError, TypeError, ValueError) as err:
+        raise RunDirConflict(f"{trial.key}: {path} cannot be read ({err}); the sweep leaves it alone: move the "
+                             "folder away or choose another --out") from None
+
+
+def _rows(path: Path) -> list[dict[str, str]]:
+    if not path.exists():
+        return []
+    with path.open(newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def _has_rows(path: Path) -> bool:
+    return bool(_rows(path))

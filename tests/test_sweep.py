@@ -1,0 +1,176 @@
+"""Sweeps on Ray: trials run to completion, a re-run changes no file, more steps resume, a folder holding another
+run is refused, a failing trial is shown, and malformed sweep files fail naming the key."""
+
+import csv
+import hashlib
+import io
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+from baselines.training import load_checkpoint
+from experiments import sweep
+from experiments.sweep_plan import RunDirConflict, Trial, inspect_run_dir, make_trials
+from experiments.sweep_spec import SweepSpecError, build_spec, read_sweep_file
+from experiments.sweep_status import LiveTable, TrialStatus
+
+# The cheapest trial the repo allows: BC on the perfect dataset, tiny network, 100 gradient steps per epoch,
+# one 50-step evaluation episode.
+TINY = ["--tasks", "UnitreeH1.walk.perfect", "--algos", "bc", "--set", "train.epoch_steps=100",
+        "--set", "train.n_eval_episodes=1", "--set", "env.horizon=50", "--set", "agent.policy_hidden=[32]",
+        "--set", "agent.batch_size=64"]
+
+
+@pytest.fixture(scope="module")
+def local_ray():
+    ray = pytest.importorskip("ray", reason='the sweep extra: pip install -e ".[sweep]"')
+    sweep._init_ray(ray, sweep.parse_args(["--num-cpus", "1"]))  # the sweep's own local start, on one CPU
+    yield ray
+    ray.shutdown()
+
+
+def files(folder: Path) -> dict[str, tuple[str, int]]:
+    """Every file under ``folder``: its sha256 and modification time."""
+    return {p.relative_to(folder).as_posix(): (hashlib.sha256(p.read_bytes()).hexdigest(), p.stat().st_mtime_ns)
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def log_rows(run: Path) -> list[dict[str, str]]:
+    with (run / "progress.csv").open(newline="") as f:
+        return list(csv.DictReader(f))
+
+
+# ---- running, re-running, extending ---------------------------------------------------------------------
+def test_sweep_runs_skips_resumes_and_refuses(local_ray, tmp_path, capsys):
+    out = tmp_path / "sweep"
+    both = [*TINY, "--steps", "200", "--seeds", "0", "1", "--out", str(out)]
+    assert sweep.main(both) == 0
+    printed = capsys.readouterr().out
+    assert "2 trials run: 2 finished, 0 failed; 0 had already finished" in printed
+    assert "pending" in printed and "finished" in printed  # the live table's states
+    runs = {seed: out / "UnitreeH1.walk.perfect" / "bc" / f"seed{seed}" for seed in (0, 1)}
+    for run in runs.values():
+        assert load_checkpoint(run)["steps"] == 200
+        assert [r["step"] for r in log_rows(run)] == ["100", "200"]
+
+    before = files(out)
+    assert sweep.main(both) == 0  # a finished sweep: nothing runs, nothing is written
+    printed = capsys.readouterr().out
+    assert "0 trials run" in printed and "done before" in printed
+    assert files(out) == before
+
+    first_rows = log_rows(runs[0])
+    assert sweep.main([*TINY, "--steps", "300", "--seeds", "0", "--out", str(out)]) == 0
+    assert "1 trials run: 1 finished" in capsys.readouterr().out
+    assert load_checkpoint(runs[0])["steps"] == 300
+    rows = log_rows(runs[0])  # resumed, not restarted: the earlier epochs' rows are kept as they were
+    assert rows[:2] == first_rows and [r["step"] for r in rows] == ["100", "200", "300"]
+    after = files(out)
+    assert {k: v for k, v in after.items() if k.startswith("UnitreeH1.walk.perfect/bc/seed1")} == \
+           {k: v for k, v in before.items() if k.startswith("UnitreeH1.walk.perfect/bc/seed1")}
+
+    assert sweep.main([*both, "--set", "agent.lr=0.01"]) == 2  # another configuration: refused, untouched
+    err = capsys.readouterr().err
+    assert "agent.lr: 0.001 in the folder, 0.01 in this sweep" in err and "nothing was started" in err
+    assert files(out) == after
+
+
+def test_a_failing_trial_is_shown_and_fails_the_sweep(local_ray, tmp_path, capsys):
+    assert sweep.main(["--tasks", "UnitreeH1.run.perfect", "--algos", "bc", "--steps", "100",
+                       "--out", str(tmp_path)]) == 1
+    captured = capsys.readouterr()
+    assert "1 trials run: 0 finished, 1 failed" in captured.out
+    assert "failed" in captured.out and "ValueError: UnitreeH1.run.perfect has no data" in captured.out
+    assert "Traceback" in captured.err
+
+
+# ---- folders: what a trial finds there ------------------------------------------------------------------
+def tiny_trial(tmp_path: Path, **overrides) -> Trial:
+    spec = build_spec({}, {"tasks": ["UnitreeH1.walk.perfect"], "algos": ["bc"], "steps": 200, "out": str(tmp_path),
+                           "set": [*TINY[5::2], *[f"{k}={v}" for k, v in overrides.items()]]})
+    return make_trials(spec)[0]
+
+
+def test_a_run_killed_before_its_first_checkpoint_is_started_again_unless_it_is_another(tmp_path):
+    trial = tiny_trial(tmp_path)
+    assert inspect_run_dir(trial).kind == "new"
+    trial.out_dir.mkdir(parents=True)
+    (trial.out_dir / "config.yaml").write_text(yaml.safe_dump({**trial.run.to_dict(), "dataset": {}}))
+    (trial.out_dir / "progress.csv").write_text("")
+    assert inspect_run_dir(trial).kind == "unstarted"
+    with pytest.raises(RunDirConflict, match=r"agent.lr: 0.001 in the folder, 0.01 in this sweep"):
+        inspect_run_dir(tiny_trial(tmp_path, **{"agent.lr": 0.01}))
+    (trial.out_dir / "progress.csv").write_text("step,score\n100,1.0\n")  # a logged epoch without checkpoint
+    with pytest.raises(RunDirConflict, match=r"holds another run's files \(progress.csv, config.yaml\)"):
+        inspect_run_dir(trial)
+
+
+# ---- sweep files and options ----------------------------------------------------------------------------
+def test_sweep_file_and_command_line_merge(tmp_path):
+    path = tmp_path / "sweep.yaml"
+    path.write_text("tasks: UnitreeH1.walk\nalgos: [vail, bc, vail]\nseeds: [0, 1]\nsteps: 20000\n"
+                    "set: {agent: {max_kl: 0.01}}\ncpus_per_trial: 0.5\n")
+    spec = build_spec(read_sweep_file(path), {"seeds": [3], "out": "x", "set": ["agent.std_0=0.3"]})
+    assert (spec.tasks, spec.algos, spec.seeds, spec.steps) == (["UnitreeH1.walk"], ["vail", "bc"], [3], 20000)
+    assert (spec.out, spec.cpus_per_trial, spec.threads) == (Path("x"), 0.5, 1)
+    assert spec.overrides["agent"] == {"max_kl": 0.01, "std_0": 0.3}
+
+
+@pytest.mark.parametrize("text, match", [
+    ("tasks: [UnitreeH1.walk]\nalgo: [vail]\n", r"unknown key 'algo' \(did you mean 'algos'\?\); valid keys: tasks"),
+    ("tasks: [UnitreeH1.walk]\nseeds: [0, one]\n", r"seeds must be a non-empty list of integers.*got \[0, 'one'\]"),
+    ("tasks: []\n", r"tasks must be a non-empty list of names"),
+    ("steps: -5\n", r"steps must be a whole number of at least 1, got -5"),
+    ("threads: 2.5\n", r"threads must be a whole number"),
+    ("cpus_per_trial: 0\n", r"cpus_per_trial must be a positive number of CPUs"),
+    ("set: [agent.max_kl]\n", r"set: override 'agent.max_kl' must look like SECTION.KEY=VALUE"),
+    ("set: {agnet: {max_kl: 0.1}}\n", r"set: unknown sections \['agnet'\]; valid: env, train, agent"),
+    ("set: 3\n", r"set must be a list of SECTION.KEY=VALUE strings"),
+    ("- UnitreeH1.walk\n", r"must be a mapping of tasks, algos, seeds"),
+    ("tasks: [UnitreeH1.walk\n", r"is not valid YAML"),
+])
+def test_malformed_sweep_files_name_the_key(tmp_path, text, match):
+    path = tmp_path / "sweep.yaml"
+    path.write_text(text)
+    with pytest.raises(SweepSpecError, match=match):
+        read_sweep_file(path)
+
+
+def test_incomplete_or_unknown_sweeps_fail_before_anything_starts(tmp_path, capsys, monkeypatch):
+    with pytest.raises(SweepSpecError, match=r"unknown algorithms \['vial'\]; valid: bc, gaifo"):
+        build_spec({"tasks": ["UnitreeH1.walk"], "algos": ["vial"]}, {})
+    with pytest.raises(SweepSpecError, match=r"the sweep needs algos: give --algos"):
+        build_spec({"tasks": ["UnitreeH1.walk"]}, {})
+    with pytest.raises(SweepSpecError, match=r"cannot read sweep file .*missing.yaml"):
+        read_sweep_file(tmp_path / "missing.yaml")
+    out = str(tmp_path / "out")
+    assert sweep.main(["--tasks", "UnitreeH1.wakl", "--algos", "bc", "--out", out]) == 2
+    assert "Did you mean 'UnitreeH1.walk'" in capsys.readouterr().err
+    assert sweep.main(["--config", str(tmp_path / "missing.yaml")]) == 2
+    assert "cannot read sweep file" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+    monkeypatch.setitem(sys.modules, "ray", None)  # as if Ray were not installed
+    assert sweep.main(["--tasks", "UnitreeH1.walk", "--algos", "bc", "--out", out]) == 2
+    assert 'pip install -e ".[sweep]"' in capsys.readouterr().err
+
+
+def test_live_table_redraws_on_a_terminal_and_prints_changes_otherwise():
+    rows = [TrialStatus("UnitreeH1.walk/vail/seed0", 20000), TrialStatus("UnitreeH1.walk/bc/seed0", 20000)]
+    log = io.StringIO()
+    table = LiveTable(log, interactive=False)
+    table.update(rows)
+    rows[0].state, rows[0].steps = "running", 5000
+    table.update(rows)
+    rows[0].steps = 6000  # a step count alone is not worth a new table in a log
+    table.update(rows)
+    rows[1].state, rows[1].note = "failed", "ValueError: bad"
+    table.update(rows)
+    assert log.getvalue().count("sweep: 2 trials") == 3
+    assert "1 running, 1 failed" in log.getvalue() and "6,000 / 20,000" in log.getvalue()
+    screen = io.StringIO()
+    live = LiveTable(screen, interactive=True)
+    live.update(rows)
+    live.update(rows)
+    assert screen.getvalue().count("\x1b[4F\x1b[J") == 1  # back over the 4 lines drawn, then redrawn
