@@ -1,0 +1,257 @@
+"""The reported results table, generated from evaluation files, pretrained cards and training logs.
+
+    python experiments/results_table.py [--results results] [--runs results/runs] [--out results] [--force]
+
+Writes ``table.md``, ``table.csv`` and ``performance_profile.png`` into ``--out``; an existing one is replaced
+only with ``--force``. Same inputs give byte-identical files (every bootstrap seeded, no dates, no absolute paths).
+
+One row per task and algorithm of the planned grid (6 tasks x 7 algorithms), its seeds pooled episode by episode
+(:mod:`experiments.table_cells` says how rows are filled and when a row is "not run", "not evaluated" or "n/a"; the
+inputs are read by :mod:`experiments.table_sources`). Below the table, per algorithm over the tasks it has: the
+IQM of run scores with a 95% stratified-bootstrap interval, and the performance profile (fraction of runs with
+score > tau) with its band, from :mod:`loco_mujoco.evaluation.aggregate` (numpy, because rliable 1.2.0 pins
+``arch<8``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import math
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # run from a checkout without installing
+
+from experiments.table_cells import (  # noqa: E402
+    ALGORITHMS,
+    NAMES,
+    OK,
+    TASKS,
+    Cell,
+    Inputs,
+    aggregates,
+    build_cells,
+    collect,
+    in_grid,
+    is_offline,
+)
+from experiments.table_sources import format_steps  # noqa: E402
+from loco_mujoco.evaluation.intervals import BOOTSTRAP_REPS  # noqa: E402
+
+OUTPUTS = ("table.md", "table.csv", "performance_profile.png")
+
+
+def _num(x: float | None, digits: int) -> str:
+    return "-" if x is None or not math.isfinite(x) else f"{x:.{digits}f}"
+
+
+def _range(values: list[Any], fmt: Callable[[Any], str]) -> str:
+    """One value, or the lowest-highest over seeds; ' (some -)' where some seeds have none."""
+    known = sorted({v for v in values if v is not None})
+    if not known:
+        return "-"
+    text = fmt(known[0]) if len(known) == 1 else f"{fmt(known[0])}-{fmt(known[-1])}"
+    return text + (" (some -)" if None in values else "")
+
+
+def budget_text(cell: Cell) -> tuple[str, str]:
+    """Steps per seed (env or gradient) and training hours per seed, '-' where unknown."""
+    if not cell.budgets:
+        return "-", "-"
+    unit = "grad" if is_offline(cell.algorithm) else "env"
+    return (f"{_range([b.steps for b in cell.budgets], format_steps)} {unit}",
+            _range([b.hours for b in cell.budgets], _hours))
+
+
+def _hours(h: float) -> str:
+    return f"{h:.1f}" if h >= 1.0 else f"{h:.2g}"
+
+
+def score_text(cell: Cell) -> str:
+    if cell.status != OK:
+        return cell.status
+    lo, hi = cell.figures["score_ci"]
+    return f"**{cell.figures['score']:.1f}** [{_num(lo, 1)}, {_num(hi, 1)}]"
+
+
+def _machines(cell: Cell) -> str:
+    return ", ".join(sorted({b.machine for b in cell.budgets if b.machine}))
+
+
+def plot_profile(agg: dict[str, dict[str, Any]], path: Path) -> None:
+    """Fraction of runs with score > tau against tau, one line and 95% band per algorithm."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    colors = dict(zip(ALGORITHMS, plt.get_cmap("tab10").colors, strict=False))
+    for algo, a in agg.items():
+        p = a["profile"]
+        perfect = sum("(perfect data)" in t for t in a["task_names"])
+        label = (f"{NAMES[algo]} ({a['tasks']} task{'s' * (a['tasks'] != 1)}, {a['runs']} run{'s' * (a['runs'] != 1)}"
+                 + (f"; {perfect} on perfect data" if perfect else "") + ")")
+        ax.plot(p["tau"], p["fraction"], color=colors[algo], label=label, drawstyle="steps-post")
+        ax.fill_between(p["tau"], p["lo"], p["hi"], color=colors[algo], alpha=0.2, step="post", linewidth=0)
+    ax.set_xlabel(r"normalised score $\tau$ (random 0, expert 100)")
+    ax.set_ylabel(r"fraction of runs with score > $\tau$")
+    ax.set_ylim(-0.02, 1.02)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title("Performance profile over the tasks each algorithm has (95% stratified-bootstrap bands)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120, metadata={"Software": None})
+    plt.close(fig)
+
+
+# ---- outputs -----------------------------------------------------------------------------------------------------
+
+CSV_COLUMNS = ("task", "algorithm", "status", "data", "score_mean", "score_ci_low", "score_ci_high", "score_iqm",
+               "seeds", "episodes", "R_mean", "R_ci_low", "R_ci_high", "L_mean", "L_ci_low", "L_ci_high",
+               "gait_deviation", "dtw_joints_rad", "dtw_sites_m", "classifier_auc", "steps_per_seed", "step_unit",
+               "train_hours_per_seed", "machine", "random_R", "hold_pose_R", "zero_action_R", "expert_R",
+               "references_dataset", "sources", "notes")
+
+
+def _csv_number(x: float | None) -> str:
+    return "" if x is None or not math.isfinite(x) else f"{x:.6g}"
+
+
+def render_csv(cells: list[Cell]) -> str:
+    """One line per row, numbers to 6 significant digits, empty where there is none."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(CSV_COLUMNS)
+    for c in cells:
+        f, refs = c.figures, c.references or {}
+        ci = {k: f.get(f"{k}_ci", (None, None)) for k in ("score", "R", "L")}
+        w.writerow([c.task, c.algorithm, c.status, c.data or "", _csv_number(f.get("score")),
+                    _csv_number(ci["score"][0]), _csv_number(ci["score"][1]), _csv_number(f.get("score_iqm")),
+                    len(c.results) or "", f.get("episodes", ""), _csv_number(f.get("R")), _csv_number(ci["R"][0]),
+                    _csv_number(ci["R"][1]), _csv_number(f.get("L")), _csv_number(ci["L"][0]), _csv_number(ci["L"][1]),
+                    _csv_number(f.get("gait_deviation")), _csv_number(f.get("dtw_joints")),
+                    _csv_number(f.get("dtw_sites")), _csv_number(f.get("classifier_auc")),
+                    ";".join(str(b.steps) for b in c.budgets),
+                    ("gradient" if is_offline(c.algorithm) else "environment") if c.budgets else "",
+                    ";".join(_csv_number(b.hours) for b in c.budgets), _machines(c),
+                    _csv_number(refs.get("random_return")), _csv_number(refs.get("hold_return")),
+                    _csv_number(refs.get("zero_return")), _csv_number(refs.get("expert_return")),
+                    refs.get("dataset_digest", ""), ";".join(r.source for r in c.results), "; ".join(c.notes)])
+    return buf.getvalue()
+
+
+def render_markdown(cells: list[Cell], agg: dict[str, dict[str, Any]], inputs: Inputs) -> str:
+    """The table, the aggregate and where every figure came from."""
+    filled = sum(c.status == OK for c in cells)
+    lines = [
+        "# Results table",
+        "",
+        "Generated by `python experiments/results_table.py --force` from the evaluation files `results/*_eval.json`, "
+        "the pretrained cards and the training logs under `results/runs/`; do not edit by hand. "
+        f"{len(cells)} rows ({len(TASKS)} tasks x {len(ALGORITHMS)} algorithms), {filled} with an evaluation.",
+        "",
+        "- **score**: normalised (0 = uniformly random policy, 100 = expert), deterministic policy, mean with a 95% "
+        "studentized-bootstrap interval over the per-episode scores of all seeds pooled (50 episodes per seed).",
+        "- **R**, **L**: mean return and episode length over the same episodes.",
+        "- **gait dev.**: the mean relative deviation of eight gait metrics from the expert's over the same frames "
+        "(each capped at 1; 0 = the expert's gait); **DTW joints** (rad) and **DTW sites** (m, pelvis height and "
+        "feet relative to the pelvis): distances to the dataset frames that follow each episode's start (0 = the "
+        "expert); all three per-episode means pooled over seeds. **AUC**: a linear classifier's cross-validated "
+        "AUC between the agent's and the dataset's kinematic states (0.5 = indistinguishable; the dataset against "
+        "itself gives about 0.55), averaged over seeds.",
+        "- **budget**: training steps per seed, environment steps (env) or, for BC, gradient steps (grad); "
+        "**hours**: per seed, the sum over logged epochs of the epoch's steps over its logged `train_steps_per_s` "
+        "(learning only: without the per-epoch evaluation and checkpoint; the runs shared their CPUs with others), "
+        "'-' where no complete log is found; **machine**: where a log or evaluation records it.",
+        "- **random / hold / expert R**: the returns of the task's references (uniformly random actions, a "
+        "controller holding the home pose, the expert's dataset frames) that the row's scores are normalised by; "
+        "for a row without an evaluation, those of the task's other evaluations where there are any "
+        "(`python experiments/evaluate.py --references TASK` computes them).",
+        "",
+        "| task | algorithm | score [95% CI] | seeds | R | L | gait dev. | DTW joints | DTW sites | AUC | budget | "
+        "hours | machine | random R | hold R | expert R | notes |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for c in cells:
+        f, refs = c.figures, c.references or {}
+        steps, hours = budget_text(c)
+        lines.append("| " + " | ".join([
+            c.task, NAMES[c.algorithm], score_text(c), str(len(c.results)) if c.results else "-",
+            _num(f.get("R"), 1), _num(f.get("L"), 0), _num(f.get("gait_deviation"), 2), _num(f.get("dtw_joints"), 2),
+            _num(f.get("dtw_sites"), 2), _num(f.get("classifier_auc"), 3), steps, hours, _machines(c) or "-",
+            _num(refs.get("random_return"), 1), _num(refs.get("hold_return"), 1), _num(refs.get("expert_return"), 1),
+            "; ".join(c.notes)]) + " |")
+    lines += ["", "## Aggregate over tasks", "",
+              "Per algorithm, over the rows it has: the interquartile mean (IQM) of run scores (a run: one seed's "
+              "mean normalised score on one task) with a 95% percentile interval from a stratified bootstrap "
+              f"({BOOTSTRAP_REPS} replicates: every task kept, its seeds and each seed's episodes "
+              "resampled). Most rows are not run yet, so each algorithm's figure covers only the tasks listed; "
+              "figures over different task sets do not compare.", "",
+              "| algorithm | tasks | runs | IQM [95% CI] | tasks covered |", "|---|---|---|---|---|"]
+    for algo, a in agg.items():
+        lo, hi = a["ci95"]
+        lines.append(f"| {NAMES[algo]} | {a['tasks']} | {a['runs']} | **{a['iqm']:.1f}** [{lo:.1f}, {hi:.1f}] | "
+                     f"{', '.join(a['task_names'])} |")
+    none = [NAMES[a] for a in ALGORITHMS if a not in agg]
+    lines += ["", f"No evaluated row: {', '.join(none) or 'none'}.", "",
+              "![performance profile](performance_profile.png)", "",
+              "Performance profile: the fraction of runs (each task weighted equally) whose score exceeds tau, with "
+              "its 95% stratified-bootstrap band; rliable's figure, drawn with numpy "
+              "(`loco_mujoco/evaluation/aggregate.py`) because rliable 1.2.0 pins `arch<8`.", "",
+              "## Sources", ""]
+    for c in cells:
+        if c.results:
+            logs = ", ".join(b.log or "no training log" for b in c.budgets)
+            lines.append(f"- {c.task} {NAMES[c.algorithm]}: " + ", ".join(
+                f"seed {r.seed} {r.source} ({format_steps(r.steps)})" for r in c.results) + f"; budget from {logs}")
+    outside = sorted(f"{r.source} ({r.task}, {r.algorithm})" for r in inputs.results if not in_grid(r))
+    if outside:
+        lines += ["", "Read but outside the grid: " + ", ".join(outside) + "."]
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    from loco_mujoco.agent_datasets import pretrained_root
+
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--results", default="results", help="folder of the evaluation files *_eval.json")
+    parser.add_argument("--runs", default="results/runs", help="folder of run directories (config.yaml, progress.csv)")
+    parser.add_argument("--pretrained", default=None,
+                        help="folder of pretrained agents whose cards fill seeds without an evaluation file "
+                             "(default: the repository's pretrained/; 'none' to leave cards out)")
+    parser.add_argument("--out", default="results", help="folder of table.md, table.csv and performance_profile.png")
+    parser.add_argument("--force", action="store_true", help="replace existing outputs")
+    args = parser.parse_args(argv)
+    results_dir, runs_dir, out = Path(args.results), Path(args.runs), Path(args.out)
+    if not results_dir.is_dir():
+        print(f"error: --results {results_dir} is not a folder", file=sys.stderr)
+        return 2
+    existing = [str(out / name) for name in OUTPUTS if (out / name).exists()]
+    if existing and not args.force:
+        print(f"error: {', '.join(existing)} exist; pass --force to replace them, or --out another folder",
+              file=sys.stderr)
+        return 2
+    pretrained = None if args.pretrained == "none" else Path(args.pretrained or pretrained_root())
+    try:
+        inputs = collect(results_dir, runs_dir, pretrained)
+    except ValueError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    cells = build_cells(inputs, results_dir, runs_dir)
+    agg = aggregates(cells)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "table.md").write_text(render_markdown(cells, agg, inputs))
+    (out / "table.csv").write_text(render_csv(cells))
+    plot_profile(agg, out / "performance_profile.png")
+    filled = sum(c.status == OK for c in cells)
+    print(f"{len(cells)} rows, {filled} evaluated; wrote {', '.join(str(out / n) for n in OUTPUTS)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,265 @@
+"""The rows of the results table: the planned grid, which results fill each row, and the aggregates over tasks.
+
+A row pools the per-episode normalised scores of all its training seeds (deterministic policy) and gives their
+mean with the repository's studentized-bootstrap 95% interval (:func:`loco_mujoco.evaluation.intervals.mean_interval`,
+seeded as ``evaluate.py`` seeds it, so a one-seed row repeats its evaluation file's intervals). One evaluation per
+seed: where a seed has several (a run and its warm-started continuation), the one with the most training steps,
+the others named in the notes. An agent trained on ``<task>.perfect`` data (evaluated on the real task) fills its
+base task's row, marked "(perfect data)", unless the row has an agent trained on the real data. A row without any
+says "not run", or "not evaluated" where a run directory trains it, or "n/a: no expert actions" where its
+committed config asks for derived expert actions (``train.expert_actions`` inverse_dynamics or auto, without
+``agent.from_observations``), the task ships no ``.perfect`` dataset with actions, and inverse dynamics refuses the
+model's actuators (muscles): read from the configs and the code, not listed here.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import math
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from experiments.table_sources import (
+    Budget,
+    SeedResult,
+    TrainingRun,
+    find_budget,
+    format_steps,
+    read_card,
+    read_evaluation,
+    training_runs,
+)
+from loco_mujoco.evaluation.aggregate import aggregate_iqm, performance_profile
+from loco_mujoco.evaluation.intervals import iqm, mean_interval
+from loco_mujoco.evaluation.protocol import SEED
+
+TASKS = ("UnitreeH1.walk", "Talos.walk", "Atlas.walk", "UnitreeA1.simple", "HumanoidTorque.walk",
+         "HumanoidMuscle.walk")
+ALGORITHMS = ("gail", "vail", "gaifo", "iq_learn", "lsiq", "sqil", "bc")
+OK, NOT_RUN, NOT_EVALUATED, NO_ACTIONS = "ok", "not run", "not evaluated", "n/a: no expert actions"
+NAMES = {"gail": "GAIL", "vail": "VAIL", "gaifo": "GAIfO", "iq_learn": "IQ-Learn", "lsiq": "LS-IQ", "sqil": "SQIL",
+         "bc": "BC"}
+
+
+def expert_actions_unavailable(task: str, algorithm: str) -> bool:
+    """Whether ``algorithm`` on ``task`` cannot get the expert actions its committed config asks for: it asks for
+    derived ones, the task has no ``.perfect`` dataset (which carries actions), and inverse dynamics refuses the
+    model's actuators. Real motion capture never has actions (baselines.common.expert_data)."""
+    from baselines.config import load_run_config
+    from loco_mujoco.core.task_names import environment_class, parse_task_name
+
+    run = load_run_config(task, algorithm)
+    if run.train.expert_actions == "dataset" or getattr(run.agent, "from_observations", False):
+        return False
+    parsed = parse_task_name(task)
+    if "perfect" in environment_class(parsed.env).dataset_types_with_data(parsed.task, parsed.mode):
+        return False
+    return inverse_dynamics_refuses(task, run.env.get("control"), bool(run.env.get("disable_arms")))
+
+
+@functools.cache
+def inverse_dynamics_refuses(task: str, control: str | None, disable_arms: bool) -> bool:
+    """Whether ``baselines.common.inverse_dynamics`` refuses the actuators of ``task``'s model in ``control`` mode
+    (muscles: force not affine in the control); the model is compiled, no environment built."""
+    from baselines.common.inverse_dynamics import _affine_actuators
+    from loco_mujoco.core.embodiment_model import ModelChoice
+    from loco_mujoco.core.task_names import environment_class, parse_task_name
+
+    parsed = parse_task_name(task)
+    cls = environment_class(parsed.env)
+    model, _ = cls.compile_model(ModelChoice(parsed.task, parsed.mode, control or cls.DEFAULT_CONTROL, disable_arms))
+    try:
+        _affine_actuators(model)
+    except ValueError:
+        return True
+    return False
+
+
+def is_offline(algorithm: str) -> bool:
+    """Whether ``algorithm`` trains on gradient steps without environment steps (BC)."""
+    from baselines import ALGORITHMS as CLASSES
+
+    return bool(getattr(CLASSES[algorithm], "offline", False))
+
+
+@dataclass
+class Inputs:
+    """Every result read (evaluation files and cards) and every run directory."""
+
+    results: list[SeedResult]
+    runs: list[TrainingRun]
+
+
+def in_grid(result: SeedResult) -> bool:
+    """Whether ``result`` belongs to a row: a grid task (real or perfect data) and a grid algorithm."""
+    return result.base_task in TASKS and result.algorithm in ALGORITHMS and result.data in ("real", "perfect")
+
+
+@dataclass
+class Cell:
+    """One row of the table."""
+
+    task: str
+    algorithm: str
+    status: str
+    results: list[SeedResult] = field(default_factory=list)  # one per seed, pooled
+    budgets: list[Budget] = field(default_factory=list)
+    references: dict[str, Any] | None = None
+    notes: list[str] = field(default_factory=list)
+    figures: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def data(self) -> str | None:
+        return self.results[0].data if self.results else None
+
+
+def collect(results_dir: Path, runs_dir: Path, pretrained_dir: Path | None) -> Inputs:
+    """Evaluation files ``<results>/*_eval.json``, cards ``<pretrained>/*/*/seed*/card.json`` whose seed no evaluation
+    file covers, and run directories under ``runs_dir``."""
+    results = [read_evaluation(p) for p in sorted(results_dir.glob("*_eval.json"))]
+    covered = {(r.task, r.algorithm, r.seed) for r in results}
+    if pretrained_dir is not None:
+        for path in sorted(pretrained_dir.glob("*/*/seed*/card.json")):
+            if "evaluation" in json.loads(path.read_text()):
+                card = read_card(path)
+                if (card.task, card.algorithm, card.seed) not in covered:
+                    results.append(card)
+    return Inputs(results, training_runs(runs_dir))
+
+
+def _key(refs: dict[str, Any]) -> str:
+    return json.dumps(refs, sort_keys=True)
+
+
+def task_references(results: list[SeedResult]) -> dict[str, dict[str, Any]]:
+    """Per task, the references most of its evaluations were scored against (ties: the first in sort order)."""
+    counts: dict[str, Counter] = {}
+    for r in results:
+        if r.references is not None:
+            counts.setdefault(r.base_task, Counter())[_key(r.references)] += 1
+    return {task: json.loads(sorted(c.items(), key=lambda kv: (-kv[1], kv[0]))[0][0]) for task, c in counts.items()}
+
+
+def _one_per_seed(results: list[SeedResult], notes: list[str]) -> list[SeedResult]:
+    """The result with the most training steps of each seed (episodes preferred to a card), sorted by seed."""
+    chosen = []
+    for seed in sorted({r.seed for r in results}):
+        same = sorted((r for r in results if r.seed == seed), key=lambda r: (r.scores is None, -r.steps, r.source))
+        chosen.append(same[0])
+        for other in same[1:]:
+            notes.append(f"seed {seed}: {other.source} ({format_steps(other.steps)}) superseded by {same[0].source} "
+                         f"({format_steps(same[0].steps)})")
+    return chosen
+
+
+def build_cells(inputs: Inputs, results_dir: Path, runs_dir: Path) -> list[Cell]:
+    """The 42 rows, their seeds pooled, budgets found and notes written."""
+    refs_of_task = task_references(inputs.results)
+    by_cell: dict[tuple[str, str], list[SeedResult]] = {}
+    for r in filter(in_grid, inputs.results):
+        by_cell.setdefault((r.base_task, r.algorithm), []).append(r)
+    cells = []
+    for task in TASKS:
+        for algo in ALGORITHMS:
+            cell = Cell(task, algo, NOT_RUN, references=refs_of_task.get(task))
+            found = by_cell.get((task, algo), [])
+            real = [r for r in found if r.data == "real"]
+            chosen = real or found
+            if real and len(real) < len(found):
+                cell.notes.append("perfect-data evaluations not pooled: "
+                                  + ", ".join(r.source for r in found if r.data != "real"))
+            if chosen:
+                _fill(cell, _one_per_seed(chosen, cell.notes), results_dir, runs_dir, refs_of_task.get(task))
+            else:
+                _empty(cell, inputs.runs)
+            cells.append(cell)
+    return cells
+
+
+def _empty(cell: Cell, runs: list[TrainingRun]) -> None:
+    """A row without an evaluation: a run in progress, n/a or not run."""
+    mine = [r for r in runs if r.algorithm == cell.algorithm and r.task in (cell.task, f"{cell.task}.perfect")]
+    if mine:
+        cell.status = NOT_EVALUATED
+        cell.budgets = [r.budget for r in mine]
+        for r in mine:
+            data = " (perfect data)" if r.task.endswith(".perfect") else ""
+            cell.notes.append(f"seed {r.seed}{data}: {r.directory} at {format_steps(r.budget.steps)}, "
+                              "no evaluation file")
+    elif expert_actions_unavailable(cell.task, cell.algorithm):
+        cell.status = NO_ACTIONS
+
+
+def _pooled_mean(values: list[np.ndarray]) -> float | None:
+    x = np.concatenate(values) if values else np.array([])
+    x = x[np.isfinite(x)]
+    return float(x.mean()) if x.size else None
+
+
+def _fill(cell: Cell, results: list[SeedResult], results_dir: Path, runs_dir: Path,
+          task_refs: dict[str, Any] | None) -> None:
+    """Pool the seeds of a row: score, R, L, metrics, budget, references."""
+    cell.status = OK
+    episodes = [r for r in results if r.scores is not None]
+    if len(episodes) < len(results) and (episodes or len(results) > 1):
+        kept = episodes or results[:1]
+        cell.notes.append("cards hold no episodes to pool; left out: "
+                          + ", ".join(r.source for r in results if r not in kept))
+        results = kept
+    cell.results = results
+    cell.budgets = [find_budget(r, runs_dir, results_dir) for r in results]
+    if results[0].data == "perfect":
+        cell.notes.insert(0, "(perfect data)")
+    refs = {_key(r.references) for r in results if r.references is not None}
+    if refs:
+        cell.references = json.loads(sorted(refs)[0])
+        if len(refs) > 1:
+            cell.notes.append("seeds scored against different references (each its own)")
+        if task_refs is not None and cell.references != task_refs:
+            own, other = cell.references, task_refs
+            what = ("dataset {dataset_digest} (expert R {expert_return:.1f})" if own["dataset_digest"] !=
+                    other["dataset_digest"] else "settings {env_settings} (expert R {expert_return:.1f})")
+            cell.notes.append(f"references of {what.format(**own)}; the task's other evaluations: "
+                              f"{what.format(**other)}")
+    f = cell.figures
+    if not episodes:  # one card: its summaries as they are
+        card = results[0].card_summary
+        f.update(score=card["score"]["mean"], score_ci=tuple(card["score"]["ci95"]), score_iqm=card["score"]["iqm"],
+                 R=card["R"]["mean"], R_ci=tuple(card["R"]["ci95"]), L=card["L"]["mean"], L_ci=tuple(card["L"]["ci95"]),
+                 episodes=int(card["score"]["n"]))
+        cell.notes.append(f"card summary only ({results[0].source})")
+        return
+    scores = np.concatenate([r.scores for r in results])
+    returns = np.concatenate([r.returns for r in results])
+    lengths = np.concatenate([r.lengths for r in results])
+    # the seeds evaluate.py uses (score: the protocol's, R and L: 0), so a one-seed row repeats its file's intervals
+    f.update(score=float(scores.mean()), score_ci=mean_interval(scores, seed=SEED), score_iqm=iqm(scores),
+             R=float(returns.mean()), R_ci=mean_interval(returns), L=float(lengths.mean()), L_ci=mean_interval(lengths),
+             episodes=int(scores.size))
+    for name in ("gait_deviation", "dtw_joints", "dtw_sites"):
+        f[name] = _pooled_mean([r.episode_metrics[name] for r in results if name in r.episode_metrics])
+    auc = [r.evaluation_metrics["classifier_auc"] for r in results if "classifier_auc" in r.evaluation_metrics]
+    f["classifier_auc"] = float(np.mean(auc)) if auc else None
+
+
+def aggregates(cells: list[Cell]) -> dict[str, dict[str, Any]]:
+    """Per algorithm with at least one row of per-episode scores: the IQM over its tasks and its profile."""
+    rows = {a: [c for c in cells if c.algorithm == a and c.status == OK
+                and all(r.scores is not None for r in c.results)] for a in ALGORITHMS}
+    scores = {a: [[r.scores for r in c.results] for c in rows[a]] for a in ALGORITHMS if rows[a]}
+    if not scores:
+        return {}
+    run_means = [x.mean() for s in scores.values() for task in s for x in task]
+    lo = min(0.0, 10.0 * math.floor(min(run_means) / 10.0))
+    hi = max(10.0, 10.0 * math.ceil(max(run_means) / 10.0 + 0.5))
+    taus = np.linspace(lo, hi, int(round((hi - lo) * 4)) + 1)
+    out = {}
+    for algo, s in scores.items():
+        out[algo] = {**aggregate_iqm(s, seed=SEED), "profile": performance_profile(s, taus, seed=SEED),
+                     "task_names": [c.task + (" (perfect data)" if c.data == "perfect" else "") for c in rows[algo]]}
+    return out

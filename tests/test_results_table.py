@@ -1,0 +1,182 @@
+"""The results table (experiments/results_table.py) and the aggregates over tasks (loco_mujoco.evaluation.aggregate):
+the 42-row grid, not-run / n/a / not-evaluated rows, synthetic evaluation files landing in their rows, pooling of
+seeds, budgets from training logs, byte-identical regeneration and the refusal to overwrite."""
+
+import json
+
+import numpy as np
+import pytest
+import yaml
+
+from experiments.results_table import OUTPUTS, main
+from experiments.table_cells import ALGORITHMS, NO_ACTIONS, NOT_EVALUATED, NOT_RUN, TASKS, build_cells, collect
+from experiments.table_sources import training_hours
+from loco_mujoco.evaluation.aggregate import aggregate_iqm, performance_profile
+from loco_mujoco.evaluation.intervals import iqm
+
+REFS = {"task": "UnitreeH1.walk", "horizon": 1000, "expert_reward_per_step": 0.5, "expert_return": 500.0,
+        "random_return": 20.0, "random_length": 50.0, "zero_return": 1.0, "zero_length": 67.0, "hold_return": 0.0,
+        "hold_length": 146.0, "dataset_digest": "abc", "env_settings": {}}
+
+
+def write_eval(folder, task, algo, seed, returns, steps=1_000_000, refs=None, stem=None):
+    """An evaluation file as ``evaluate.py --json`` writes it (the parts the table reads)."""
+    returns = [float(r) for r in returns]
+    d = {"task": task, "algorithm": algo, "seed": seed, "steps": steps, "protocol": {"episodes": len(returns)},
+         "references": {**REFS, "task": task.removesuffix(".perfect"), **(refs or {})},
+         "deterministic": {"returns": returns, "lengths": [200.0 + r for r in returns]},
+         "metrics": {"gait": {"deviation": [0.5] * len(returns)},
+                     "trajectory": {"dtw_joints": [1.0] * (len(returns) - 1) + [float("nan")],
+                                    "dtw_sites": [0.25] * len(returns)},
+                     "distribution": {"agent": {"classifier_auc": 0.8 + 0.1 * seed}}}}
+    path = folder / f"{stem or f'{task}_{algo}_seed{seed}'}_eval.json"
+    path.write_text(json.dumps(d))
+    return path
+
+
+def table(results, runs):
+    cells = build_cells(collect(results, runs, None), results, runs)
+    return {(c.task, c.algorithm): c for c in cells}, cells
+
+
+@pytest.fixture
+def dirs(tmp_path):
+    results, runs = tmp_path / "results", tmp_path / "runs"
+    results.mkdir()
+    runs.mkdir()
+    return results, runs
+
+
+def test_grid_has_42_rows_with_not_run_and_na(dirs):
+    rows, cells = table(*dirs)
+    assert len(cells) == 42 == len(TASKS) * len(ALGORITHMS)
+    assert [(c.task, c.algorithm) for c in cells] == [(t, a) for t in TASKS for a in ALGORITHMS]
+    # muscles: inverse dynamics refuses them and no .perfect dataset exists; GAIL and BC ask for derived actions
+    assert rows["HumanoidMuscle.walk", "gail"].status == NO_ACTIONS
+    assert rows["HumanoidMuscle.walk", "bc"].status == NO_ACTIONS
+    # state-only algorithms, and the off-policy ones that learn an inverse model online there (from_observations)
+    for algo in ("vail", "gaifo", "iq_learn", "lsiq", "sqil"):
+        assert rows["HumanoidMuscle.walk", algo].status == NOT_RUN
+    assert rows["HumanoidTorque.walk", "gail"].status == NOT_RUN  # torque motors: inverse dynamics works
+    assert rows["UnitreeH1.walk", "bc"].status == NOT_RUN
+    assert all(not c.results and not c.figures for c in cells)
+
+
+def test_an_evaluation_lands_in_its_row(dirs):
+    results, runs = dirs
+    returns = np.random.default_rng(0).uniform(20.0, 300.0, 50)
+    write_eval(results, "Atlas.walk", "vail", 0, returns)
+    rows, cells = table(results, runs)
+    cell = rows["Atlas.walk", "vail"]
+    assert cell.status == "ok" and len(cell.results) == 1 and cell.data == "real"
+    expected = 100.0 * (returns.mean() - 20.0) / (500.0 - 20.0)
+    f = cell.figures
+    assert f["score"] == pytest.approx(expected)
+    lo, hi = f["score_ci"]
+    assert lo < expected < hi and hi - lo < 30.0
+    assert f["R"] == pytest.approx(returns.mean()) and f["L"] == pytest.approx(200.0 + returns.mean())
+    assert f["gait_deviation"] == 0.5 and f["dtw_joints"] == 1.0 and f["dtw_sites"] == 0.25  # NaN episode left out
+    assert f["classifier_auc"] == pytest.approx(0.8)
+    assert sum(c.status == "ok" for c in cells) == 1
+    assert rows["Atlas.walk", "gail"].references["expert_return"] == 500.0  # the task's references on its other rows
+
+
+def test_two_seeds_are_pooled_episode_by_episode(dirs):
+    results, runs = dirs
+    a, b = np.full(50, 68.0), np.full(30, 260.0)  # scores 10 and 50
+    write_eval(results, "UnitreeA1.simple", "gaifo", 0, a)
+    write_eval(results, "UnitreeA1.simple", "gaifo", 1, b)
+    rows, _ = table(results, runs)
+    cell = rows["UnitreeA1.simple", "gaifo"]
+    assert [r.seed for r in cell.results] == [0, 1]
+    f = cell.figures
+    assert f["episodes"] == 80
+    assert f["score"] == pytest.approx((50 * 10.0 + 30 * 50.0) / 80)
+    assert f["score_ci"][0] < f["score"] < f["score_ci"][1]
+    assert f["classifier_auc"] == pytest.approx(0.85)  # per-evaluation metric: the mean over seeds
+
+
+def test_perfect_data_superseded_seeds_and_runs_without_evaluation(dirs):
+    results, runs = dirs
+    write_eval(results, "UnitreeH1.walk.perfect", "bc", 0, np.full(10, 116.0), steps=20_000)
+    write_eval(results, "UnitreeH1.walk", "vail", 0, np.full(10, 68.0), steps=2_000_000, stem="UnitreeH1.walk_vail")
+    write_eval(results, "UnitreeH1.walk", "vail", 0, np.full(10, 116.0), steps=5_000_000, stem="late")
+    run = runs / "UnitreeH1.walk.perfect_sqil"
+    run.mkdir()
+    (run / "config.yaml").write_text(yaml.safe_dump({"task": "UnitreeH1.walk.perfect", "algorithm": "sqil",
+                                                     "seed": 0}))
+    (run / "progress.csv").write_text("step,epoch,train_steps_per_s\n20000,1,100\n40000,2,50\n")
+    rows, _ = table(results, runs)
+    bc = rows["UnitreeH1.walk", "bc"]
+    assert bc.data == "perfect" and bc.notes[0] == "(perfect data)" and bc.figures["score"] == pytest.approx(20.0)
+    vail = rows["UnitreeH1.walk", "vail"]
+    assert len(vail.results) == 1 and vail.results[0].steps == 5_000_000  # the latest evaluation of seed 0
+    assert vail.figures["score"] == pytest.approx(20.0) and "superseded" in vail.notes[0]
+    sqil = rows["UnitreeH1.walk", "sqil"]
+    assert sqil.status == NOT_EVALUATED and sqil.budgets[0].steps == 40_000
+    assert sqil.budgets[0].hours == pytest.approx((20_000 / 100 + 20_000 / 50) / 3600)
+
+
+def test_training_hours_need_a_complete_log():
+    rows = [{"step": 100.0, "epoch": 1.0, "train_steps_per_s": 10.0},
+            {"step": 200.0, "epoch": 2.0, "train_steps_per_s": 20.0}]
+    assert training_hours(rows, 200) == pytest.approx(15.0 / 3600)
+    assert training_hours(rows, 100) == pytest.approx(10.0 / 3600)
+    assert training_hours(rows, 150) is None  # no epoch ends there
+    assert training_hours([rows[0], {**rows[1], "epoch": 3.0}], 200) is None  # an epoch missing
+
+
+def test_aggregate_iqm_and_profile():
+    rng = np.random.default_rng(1)
+    scores = [[rng.normal(10.0, 5.0, 50), rng.normal(12.0, 5.0, 50)], [rng.normal(40.0, 5.0, 50)]]
+    means = [x.mean() for task in scores for x in task]
+    agg = aggregate_iqm(scores, reps=500)
+    assert agg["iqm"] == pytest.approx(iqm(np.array(means))) and agg["tasks"] == 2 and agg["runs"] == 3
+    assert agg["ci95"][0] < agg["iqm"] < agg["ci95"][1]
+    p = performance_profile(scores, np.array([0.0, 11.0, 30.0, 50.0]), reps=500)
+    # task 1: both runs > 0, one of two > 11 (~10 and ~12), none > 30; task 2: its run > 30; averaged over tasks
+    assert p["fraction"] == pytest.approx([1.0, 0.75, 0.5, 0.0])
+    assert np.all(p["lo"] <= p["fraction"]) and np.all(p["fraction"] <= p["hi"])
+    assert aggregate_iqm(scores, reps=500) == agg  # seeded
+    with pytest.raises(ValueError, match="no runs"):
+        aggregate_iqm([[]])
+
+
+def test_regeneration_is_byte_identical_and_never_overwrites_unasked(dirs, tmp_path, capsys):
+    results, runs = dirs
+    rng = np.random.default_rng(2)
+    write_eval(results, "UnitreeH1.walk", "gail", 0, rng.uniform(20, 200, 20))
+    write_eval(results, "UnitreeH1.walk", "gail", 1, rng.uniform(20, 200, 20))
+    write_eval(results, "Talos.walk", "gail", 0, rng.uniform(20, 200, 20))
+    args = ["--results", str(results), "--runs", str(runs), "--pretrained", "none"]
+    out = tmp_path / "out"
+    assert main([*args, "--out", str(out)]) == 0
+    first = {name: (out / name).read_bytes() for name in OUTPUTS}
+    md = first["table.md"].decode()
+    assert md.count("\n| ") == 1 + 42 + 1 + 1  # header, 42 rows, aggregate header, one aggregate row
+    assert "| Talos.walk | GAIL | **" in md and "| GAIL | 2 | 3 |" in md
+    # refused without --force, nothing touched
+    (out / "table.csv").write_text("mine")
+    assert main([*args, "--out", str(out)]) == 2
+    assert "pass --force" in capsys.readouterr().err
+    assert (out / "table.csv").read_text() == "mine" and (out / "table.md").read_bytes() == first["table.md"]
+    assert main([*args, "--out", str(out), "--force"]) == 0
+    assert {name: (out / name).read_bytes() for name in OUTPUTS} == first
+
+
+def test_a_card_fills_a_seed_without_an_evaluation_file(dirs, tmp_path):
+    results, runs = dirs
+    summary = {"mean": 7.0, "ci95": [5.0, 9.0], "iqm": 6.5, "iqm_ci95": [5.0, 8.0], "n": 50}
+    for algo in ("vail", "gaifo"):
+        card = tmp_path / "pretrained" / "Talos.walk" / algo / "seed0" / "card.json"
+        card.parent.mkdir(parents=True)
+        card.write_text(json.dumps({"task": "Talos.walk", "algorithm": algo, "seed": 0, "steps": 3_000_000,
+                                    "evaluation": {"score": summary, "R": summary, "L": summary}}))
+    write_eval(results, "Talos.walk", "gaifo", 0, np.full(10, 68.0))  # an evaluation file wins over the card
+    cells = build_cells(collect(results, runs, tmp_path / "pretrained"), results, runs)
+    rows = {(c.task, c.algorithm): c for c in cells}
+    vail = rows["Talos.walk", "vail"]
+    assert vail.figures["score"] == 7.0 and vail.figures["score_ci"] == (5.0, 9.0)
+    assert "card summary only" in vail.notes[-1] and vail.budgets[0].steps == 3_000_000
+    gaifo = rows["Talos.walk", "gaifo"]
+    assert gaifo.figures["score"] == pytest.approx(10.0) and gaifo.results[0].card_summary is None
