@@ -16,9 +16,10 @@ from __future__ import annotations
 import argparse
 import sys
 
+from loco_mujoco.controllers.datasets import load_real_dataset
 from loco_mujoco.core.task_names import environment_class, list_tasks, parse_task_name
 from loco_mujoco.datasets.quality import quality_violations
-from loco_mujoco.datasets.registry import RECIPES, dataset_kind, load_dataset, retarget_file, variants
+from loco_mujoco.datasets.registry import RECIPES, dataset_kind, retarget_file
 from loco_mujoco.datasets.trajectory import TrajectoryDataset
 
 
@@ -81,7 +82,7 @@ def main(argv: list[str] | None = None) -> int:
         build_in_parallel(datasets, args.jobs, rebuild)
         rebuild = False
     for env_cls, task, mode, variant in datasets:
-        ds = load_real_dataset(env_cls, task, mode, variant, rebuild, progress=not args.list)
+        ds = load_real_dataset(env_cls.dataset_subject(), task, variant, mode, rebuild, progress=not args.list)
         meta = ds.metadata
         label = ".".join([env_cls.__name__, task] + ([mode] if mode else []))
         if not args.list:
@@ -104,20 +105,9 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-def load_real_dataset(env_cls: type, task: str, mode: str | None, variant: str, rebuild: bool = False,
-                      progress: bool = True) -> TrajectoryDataset:
-    """A real dataset from the cache: retargeted clips, or the controller's rollouts for a generated variant."""
-    if variants(env_cls, task)[variant].generator == "controller":
-        from loco_mujoco.controllers.datasets import controller_dataset_path
-
-        return TrajectoryDataset.load(controller_dataset_path(f"{env_cls.__name__}.{task}", rebuild=rebuild,
-                                                              progress=progress))
-    return load_dataset(env_cls.dataset_subject(), task, variant, rebuild=rebuild, progress=progress, mode=mode)
-
-
 def _build_one(entry: tuple[str, str, str | None, str], rebuild: bool) -> None:
     env_name, task, mode, variant = entry
-    load_real_dataset(environment_class(env_name), task, mode, variant, rebuild, progress=False)
+    load_real_dataset(environment_class(env_name).dataset_subject(), task, variant, mode, rebuild, progress=False)
 
 
 def build_in_parallel(datasets: list[tuple[type, str, str | None, str]], jobs: int, rebuild: bool) -> None:
@@ -194,7 +184,6 @@ def list_agent_datasets(details: bool, rebuild: bool) -> None:
     import numpy as np
 
     from loco_mujoco.agent_datasets import AGENT_RECIPES, agent_dataset_path, file_sha256
-    from loco_mujoco.datasets.trajectory import TrajectoryDataset
 
     for name in AGENT_RECIPES:
         path = agent_dataset_path(name, rebuild=rebuild, progress=not details)

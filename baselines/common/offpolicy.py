@@ -147,6 +147,9 @@ class OffPolicyImitation(Agent):
     family: ClassVar[str] = "offpolicy"  # configs/defaults.yaml: families.offpolicy
     config_class: ClassVar[type[OffPolicyConfig]] = OffPolicyConfig
     uses_policy_values: ClassVar[bool] = True  # False: critic_loss ignores batch.v (no critic gradient through it)
+    # False: critic_loss ignores the agent's Q(s, a) (batch.q[:, :n_agent]), so those B rows skip the critic pass
+    # (LS-IQ); the logged q_agent is then measured once per Core.learn, on the latest B replay transitions
+    uses_agent_values: ClassVar[bool] = True
 
     def __init__(self, mdp_info: MDPInfo, expert: ExpertData, config: OffPolicyConfig | dict | None = None,
                  seed: int = 0):
@@ -270,8 +273,13 @@ class OffPolicyImitation(Agent):
             new_action, log_prob, next_log_prob = sampled[:n], log_probs[:n], log_probs[n:]
             next_q, _ = self.target_critic(TwinCritic.with_ones(x_next, sampled[n:]))
             next_v = next_q.amin(0) - alpha * next_log_prob
-            critic_input = torch.cat([TwinCritic.with_ones(x, action), TwinCritic.with_ones(x, new_action)])
+            b = self.config.batch_size
+            skipped = 0 if self.uses_agent_values else b  # leading rows of [x, a] left out of the critic pass
+            critic_input = torch.cat([TwinCritic.with_ones(x[skipped:], action[skipped:]),
+                                      TwinCritic.with_ones(x, new_action)])
             values, hidden = critic(critic_input, keep=True)
+            if skipped:  # placeholders the loss never reads (checked below)
+                values = torch.cat([values.new_zeros(values.shape[0], skipped), values], 1)
         # The critic loss is differentiated by autograd w.r.t. the values only; the rest is written out below.
         if self.uses_policy_values:
             leaf = values.detach().requires_grad_()
@@ -288,10 +296,11 @@ class OffPolicyImitation(Agent):
             # -min_j Q_j / n goes down the critic layers with the loss's cotangent (critic before its step).
             q_min, argmin = values[:, n:].min(0)
             # Rows whose cotangent is zero add nothing (LS-IQ's loss has no term on the agent's Q(s, a)): skip them.
-            b = self.config.batch_size
             loss_start = b if not grad_values[:, :b].any() else 0
-            grad_action = critic.backward(critic_input, hidden, grad_values[:, loss_start:], loss_start, argmin,
-                                          -1.0 / n)
+            if loss_start < skipped:
+                raise RuntimeError(f"{self.name}.critic_loss reads the agent's Q(s, a), but uses_agent_values is False")
+            grad_action = critic.backward(critic_input, hidden, grad_values[:, loss_start:], loss_start - skipped,
+                                          argmin, -1.0 / n)
             policy.backward_kept(actor_inputs, policy.squash_backward(out[:n], noise[0], new_action, alpha / n,
                                                                       grad_action))
         fused_adam_step(self.critic_optimizer)
@@ -302,9 +311,9 @@ class OffPolicyImitation(Agent):
         self.critic.soft_update(self.target_critic, self.config.tau)
         self.updates += 1
         with torch.no_grad():
-            b = self.config.batch_size
             stats = {"critic_loss": critic_loss, "actor_loss": (alpha * log_prob - q_min).mean(),
-                     "q_agent": values[:, :b].mean(), "q_expert": values[:, b:n].mean(), "v_next": next_v.mean(),
+                     **({"q_agent": values[:, :b].mean()} if self.uses_agent_values else {}),
+                     "q_expert": values[:, b:n].mean(), "v_next": next_v.mean(),
                      "entropy": -log_prob.mean(), "alpha": alpha, **stats, **self._inverse_model_stats}
             self._accumulate(stats)
 
@@ -360,7 +369,18 @@ class OffPolicyImitation(Agent):
             means = (self._stats_sum / self._stats_count).tolist()
             self._stats = {"updates": float(self.updates), "replay_size": float(self.buffer.size),
                            **dict(zip(self._stats_keys, means, strict=True))}
+            if not self.uses_agent_values:
+                self._stats["q_agent"] = self._latest_agent_value()
             self._stats_sum, self._stats_count = None, 0
+
+    def _latest_agent_value(self) -> float:
+        """Mean of the critics' ``Q(s, a)`` over the latest ``batch_size`` replay transitions (no random draw)."""
+        buf = self.buffer
+        idx = (buf.n_added - 1 - np.arange(min(self.config.batch_size, buf.size))) % buf.capacity
+        x = torch.from_numpy(self.obs_standardizer.normalize(buf.states[idx]).astype(np.float32))
+        with torch.no_grad():
+            values, _ = self.critic(TwinCritic.with_ones(x, torch.from_numpy(buf.actions[idx])))
+        return float(values.mean())
 
     @property
     def last_stats(self) -> dict[str, float]:

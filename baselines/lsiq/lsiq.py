@@ -66,6 +66,7 @@ class LSIQ(OffPolicyImitation):
     name = "lsiq"
     config_class = LSIQConfig
     config: LSIQConfig
+    uses_agent_values = False  # the loss reads the expert's Q(s, a) and every state's V, never the agent's Q(s, a)
 
     def critic_loss(self, batch: CriticBatch) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
         return lsiq_loss(batch, self.config.reg_mult)

@@ -228,6 +228,18 @@ def controller_dataset_path(task: str, seed: int = 0, rebuild: bool = False, pro
     return path
 
 
+def load_real_dataset(subject: Any, task: str, variant: str, mode: str | None = None, rebuild: bool = False,
+                      progress: bool = True) -> TrajectoryDataset:
+    """The real dataset of ``subject``'s (a :class:`~loco_mujoco.datasets.subject.DatasetSubject`) ``task`` in
+    ``variant``: this controller's rollouts for a generated variant, the retargeted clips otherwise."""
+    from loco_mujoco.datasets.registry import load_dataset, variants
+
+    if variants(subject, task)[variant].generator == "controller":
+        return TrajectoryDataset.load(controller_dataset_path(f"{subject.name}.{task}", rebuild=rebuild,
+                                                              progress=progress))
+    return load_dataset(subject, task, variant, rebuild=rebuild, progress=progress, mode=mode)
+
+
 def _stack(runs: list[Rollout], joint_names: tuple[str, ...], frequency: float,
            metadata: dict[str, Any]) -> TrajectoryDataset:
     actions = []

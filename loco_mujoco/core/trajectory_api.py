@@ -43,18 +43,13 @@ class TrajectoryMixin:
                 from loco_mujoco.datasets.loco_format import load_any_dataset
                 self._dataset = load_any_dataset(self.dataset_subject(), self.dataset_path)
             elif self.dataset_type == "real":
-                from loco_mujoco.datasets.registry import load_dataset, resolve_variant, variants
+                # retargeted clips, or rollouts of our quadruped controller (which sits above the environments)
+                from loco_mujoco.controllers.datasets import load_real_dataset
+                from loco_mujoco.datasets.registry import resolve_variant
 
                 subject = self.dataset_subject()
                 variant = resolve_variant(subject, self.task_name, self.dataset_variant)
-                if variants(subject, self.task_name)[variant].generator == "controller":
-                    # simulated by our quadruped controller, which sits above the environments
-                    from loco_mujoco.controllers.datasets import controller_dataset_path
-
-                    path = controller_dataset_path(f"{subject.name}.{self.task_name}")
-                    self._dataset = TrajectoryDataset.load(path)
-                else:
-                    self._dataset = load_dataset(subject, self.task_name, variant, mode=self.mode)
+                self._dataset = load_real_dataset(subject, self.task_name, variant, mode=self.mode)
             else:  # perfect / preference: rolled out by our agents, built into the cache on first use
                 from loco_mujoco.agent_datasets import agent_dataset_path
 
