@@ -10,6 +10,13 @@ the default seed, the protocol's first ``n_eval_episodes``; the log's ``score`` 
 then the log row, then the checkpoint (written atomically). A killed run therefore loses at most the epoch in
 progress, and resuming restores the agent, the training environment's generator and the global torch / numpy
 generators, so it continues exactly as if it had never stopped.
+
+With ``train.n_envs > 1`` (on-policy algorithms) an epoch is one ``BatchedCollector.learn`` call instead
+(:mod:`baselines.common.batched`): ``n_envs`` training environments seeded from the run seed
+(:func:`~baselines.common.batched.env_seeds`; the first is the environment that gave the expert data, re-seeded),
+one batched policy forward per control step, their physics in ``train.env_threads`` threads. Like ``Core.learn``
+it resets every environment at its start, so the checkpoint holds each environment's generator (``env_rngs``)
+besides the agent's, and a resumed run again continues exactly.
 """
 
 from __future__ import annotations
@@ -29,6 +36,7 @@ import yaml
 from mushroom_rl.core import Core
 from tqdm import tqdm
 
+from baselines.common.batched import BatchedCollector, env_seeds
 from baselines.common.evaluation import evaluate
 from baselines.common.expert_data import ExpertData, kinematic_obs_mask
 from baselines.common.logger import CSVLogger
@@ -86,6 +94,15 @@ def build(run: RunConfig) -> tuple[Any, Any]:
     env = make_env(run, seed=run.seed)
     agent = make_agent(run.algorithm, env, config=run.agent, seed=run.seed, expert=make_expert(run, env))
     return env, agent
+
+
+def build_collector(run: RunConfig, env: Any, agent: Any) -> BatchedCollector:
+    """The ``run.train.n_envs`` training environments of a batched run around ``agent``: ``env`` (re-seeded) and
+    ``n_envs - 1`` more of the same task and settings, seeds from :func:`~baselines.common.batched.env_seeds`."""
+    seeds = env_seeds(run.seed, run.train.n_envs)
+    env.seed(seeds[0])
+    envs = [env] + [make_env(run, seed=s) for s in seeds[1:]]
+    return BatchedCollector(agent, envs, n_threads=run.train.env_threads or None)
 
 
 def load_checkpoint(path: str | Path) -> dict[str, Any]:
@@ -170,6 +187,7 @@ class Trainer:
         torch.manual_seed(run.seed)
         np.random.seed(run.seed)
         self.env, self.agent = build(run)
+        self.collector = build_collector(run, self.env, self.agent) if run.train.n_envs > 1 else None
         if hasattr(self.agent, "set_budget"):  # off-policy: the warm-up scales to the run's length
             self.agent.set_budget(run.train.n_steps)
         self.eval_env = evaluation_env(run.task, run.env, seed=run.train.eval_seed)  # the real task's starts
@@ -188,7 +206,10 @@ class Trainer:
     # ---- the loop -------------------------------------------------------------------------------------
     def train(self) -> dict[str, float]:
         run, last_eval = self.run, {}
-        core = Core(self.agent, self.env, callbacks_fit=[self._on_fit])
+        if self.collector is None:
+            core = Core(self.agent, self.env, callbacks_fit=[self._on_fit])
+        else:
+            core, self.collector.callbacks_fit = None, [self._on_fit]
         self._bar = tqdm(total=run.train.n_steps, initial=self.steps, unit="step", dynamic_ncols=True,
                          disable=not self.progress, desc=f"{run.algorithm} {run.task}")
         try:
@@ -215,16 +236,21 @@ class Trainer:
             self._bar.close()
             self.agent.stop()
             self.logger.close()
+            if self.collector is not None:
+                self.collector.close()  # its worker threads; a later train() steps the envs in this thread
         return last_eval
 
-    def _learn(self, core: Core, n: int) -> None:
-        """``n`` steps of training: environment steps for on-policy agents, gradient steps for offline ones."""
+    def _learn(self, core: Core | None, n: int) -> None:
+        """``n`` steps of training: environment steps for on-policy agents (``Core`` with one env, or the batched
+        collector), gradient steps for offline ones."""
         if getattr(self.agent, "offline", False):
             self.agent.fit_offline(n, callback=self._bar.update)
+        elif self.collector is not None:
+            self.collector.learn(n_steps=n, n_steps_per_fit=self.run.train.n_steps_per_fit)
         else:
             core.learn(n_steps=n, n_steps_per_fit=self.run.train.n_steps_per_fit, quiet=True)
 
-    def _on_fit(self, dataset: list) -> None:
+    def _on_fit(self, dataset: Any) -> None:
         self._bar.update(self.run.train.n_steps_per_fit)
 
     def evaluate(self) -> dict[str, float]:
@@ -243,10 +269,13 @@ class Trainer:
 
     # ---- checkpoints ----------------------------------------------------------------------------------
     def state_dict(self) -> dict[str, Any]:
-        return {"format": CHECKPOINT_FORMAT, "run_config": self.run.to_dict(), "env_name": self.run.task,
-                "epoch": self.epoch, "steps": self.steps, "wall_s": self.wall_s,
-                "agent": self.agent.state_dict(), "env_rng": self.env._rng.bit_generator.state,
-                "torch_rng": torch.get_rng_state(), "numpy_rng": _numpy_global_state()}
+        state = {"format": CHECKPOINT_FORMAT, "run_config": self.run.to_dict(), "env_name": self.run.task,
+                 "epoch": self.epoch, "steps": self.steps, "wall_s": self.wall_s,
+                 "agent": self.agent.state_dict(), "env_rng": self.env._rng.bit_generator.state,
+                 "torch_rng": torch.get_rng_state(), "numpy_rng": _numpy_global_state()}
+        if self.collector is not None:  # every training environment's generator (env_rng: the first one's)
+            state["env_rngs"] = self.collector.rng_states()
+        return state
 
     def save(self) -> None:
         buffered = hasattr(self.agent, "save_buffer")  # off-policy: the replay buffer beside the checkpoint
@@ -290,6 +319,8 @@ class Trainer:
         if hasattr(self.agent, "load_buffer"):
             self._restore_buffer()
         self.env._rng.bit_generator.state = state["env_rng"]
+        if self.collector is not None:
+            self.collector.set_rng_states(state["env_rngs"])
         torch.set_rng_state(state["torch_rng"])
         _set_numpy_global_state(state["numpy_rng"])
         self.epoch, self.steps, self.wall_s = int(state["epoch"]), int(state["steps"]), float(state["wall_s"])
