@@ -52,11 +52,22 @@ class TrainConfig:
     # "dataset", "inverse_dynamics" (GAIL on data without actions) or "auto" (the dataset's where it has them)
     expert_actions: str = "dataset"
     n_steps_per_fit: int = 1000  # on-policy: environment steps between fits; offline: 1
+    # on-policy: environments stepped together, one batched policy forward per control step, each contributing
+    # n_steps_per_fit / n_envs consecutive steps to a fit (baselines/common/batched.py); 1: Core with one env
+    n_envs: int = 1
+    env_threads: int = 0  # with n_envs > 1: threads stepping the environments (0: one per core, at most 2)
 
     def validate(self) -> None:
-        for name in ("n_steps", "epoch_steps", "n_eval_episodes", "n_steps_per_fit"):
+        for name in ("n_steps", "epoch_steps", "n_eval_episodes", "n_steps_per_fit", "n_envs"):
             if getattr(self, name) < 1:
                 raise ConfigError(f"train.{name} must be >= 1, got {getattr(self, name)}")
+        if self.env_threads < 0:
+            raise ConfigError(f"train.env_threads must be >= 0 (0: one per core, at most 2), got {self.env_threads}")
+        if self.n_steps_per_fit % self.n_envs:
+            valid = [k for k in range(1, min(self.n_steps_per_fit, 16) + 1) if self.n_steps_per_fit % k == 0]
+            raise ConfigError(f"train.n_steps_per_fit ({self.n_steps_per_fit}) must be a multiple of train.n_envs "
+                              f"({self.n_envs}): every environment contributes as many steps to a fit; n_envs that "
+                              f"divide it: {', '.join(map(str, valid))}{', ...' if self.n_steps_per_fit > 16 else ''}")
         if self.n_eval_episodes_stochastic < 0:
             raise ConfigError(f"train.n_eval_episodes_stochastic must be >= 0, got {self.n_eval_episodes_stochastic}")
         if self.epoch_steps % self.n_steps_per_fit:
@@ -155,6 +166,9 @@ def load_run_config(task: str, algorithm: str, seed: int = 0, config_dir: str | 
         raise ConfigError(f"agent section ({task_file} on {defaults_file}): {err}") from None
     train = _dataclass_from_dict(TrainConfig, merged["train"], "train", task_file)
     try:
+        if train.n_envs != 1 and family != "adversarial":
+            raise ConfigError(f"train.n_envs = {train.n_envs}: several environments per process are for the "
+                              f"on-policy algorithms (gail, vail, gaifo); {algorithm} ({family}) takes n_envs: 1")
         train.validate()
     except ConfigError as err:
         raise ConfigError(f"train section ({shown_task} on {shown_defaults}): {err}") from None

@@ -10,6 +10,13 @@ the default seed, the protocol's first ``n_eval_episodes``; the log's ``score`` 
 then the log row, then the checkpoint (written atomically). A killed run therefore loses at most the epoch in
 progress, and resuming restores the agent, the training environment's generator and the global torch / numpy
 generators, so it continues exactly as if it had never stopped.
+
+With ``train.n_envs > 1`` (on-policy algorithms) an epoch is one ``BatchedCollector.learn`` call instead
+(:mod:`baselines.common.batched`): ``n_envs`` training environments seeded from the run seed
+(:func:`~baselines.common.batched.env_seeds`; the first is the environment that gave the expert data, re-seeded),
+one batched policy forward per control step, their physics in ``train.env_threads`` threads. Like ``Core.learn``
+it resets every environment at its start, so the checkpoint holds each environment's generator (``env_rngs``)
+besides the agent's, and a resumed run again continues exactly.
 """
 
 from __future__ import annotations
@@ -30,6 +37,7 @@ import yaml
 from mushroom_rl.core import Core
 from tqdm import tqdm
 
+from baselines.common.batched import BatchedCollector, env_seeds
 from baselines.common.evaluation import evaluate
 from baselines.common.expert_data import ExpertData, kinematic_obs_mask
 from baselines.common.logger import CSVLogger
@@ -89,6 +97,15 @@ def build(run: RunConfig) -> tuple[Any, Any]:
     return env, agent
 
 
+def build_collector(run: RunConfig, env: Any, agent: Any) -> BatchedCollector:
+    """The ``run.train.n_envs`` training environments of a batched run around ``agent``: ``env`` (re-seeded) and
+    ``n_envs - 1`` more of the same task and settings, seeds from :func:`~baselines.common.batched.env_seeds`."""
+    seeds = env_seeds(run.seed, run.train.n_envs)
+    env.seed(seeds[0])
+    envs = [env] + [make_env(run, seed=s) for s in seeds[1:]]
+    return BatchedCollector(agent, envs, n_threads=run.train.env_threads or None)
+
+
 def load_checkpoint(path: str | Path) -> dict[str, Any]:
     """A checkpoint written by :class:`Trainer` (tensors and plain values: safe ``weights_only`` loading)."""
     path = Path(path)
@@ -135,14 +152,17 @@ class Trainer:
     the new configuration (e.g. a larger batch per fit) applies from then on. The source is recorded in
     ``run.init_from``. ``n_threads`` replaces a resumed run's torch thread count (results then match the
     uninterrupted run only to floating-point reduction order). ``on_progress(steps)``, if given, hears the steps
-    done so far after every fit (gradient steps: every 100), e.g. to show a sweep's trials live.
+    done so far after every fit (gradient steps: every 100), e.g. to show a sweep's trials live;
+    ``on_evaluation(steps, figures)`` hears each epoch's evaluation, and what it returns (a line, or None) is printed
+    above the progress bar.
     """
 
     def __init__(self, run: RunConfig, out_dir: str | Path, resume: bool = False, progress: bool = True,
                  init_from: str | Path | None = None, n_threads: int | None = None,
-                 on_progress: Callable[[int], None] | None = None):
+                 on_progress: Callable[[int], None] | None = None,
+                 on_evaluation: Callable[[int, dict[str, float]], str | None] | None = None):
         self.out_dir = Path(out_dir)
-        self.on_progress = on_progress
+        self.on_progress, self.on_evaluation = on_progress, on_evaluation
         self.checkpoint_path = self.out_dir / CHECKPOINT
         state = warm = None
         if resume and init_from is not None:
@@ -174,6 +194,7 @@ class Trainer:
         torch.manual_seed(run.seed)
         np.random.seed(run.seed)
         self.env, self.agent = build(run)
+        self.collector = build_collector(run, self.env, self.agent) if run.train.n_envs > 1 else None
         if hasattr(self.agent, "set_budget"):  # off-policy: the warm-up scales to the run's length
             self.agent.set_budget(run.train.n_steps)
         self.eval_env = evaluation_env(run.task, run.env, seed=run.train.eval_seed)  # the real task's starts
@@ -192,7 +213,10 @@ class Trainer:
     # ---- the loop -------------------------------------------------------------------------------------
     def train(self) -> dict[str, float]:
         run, last_eval = self.run, {}
-        core = Core(self.agent, self.env, callbacks_fit=[self._on_fit])
+        if self.collector is None:
+            core = Core(self.agent, self.env, callbacks_fit=[self._on_fit])
+        else:
+            core, self.collector.callbacks_fit = None, [self._on_fit]
         self._bar = tqdm(total=run.train.n_steps, initial=self.steps, unit="step", dynamic_ncols=True,
                          disable=not self.progress, desc=f"{run.algorithm} {run.task}")
         self._live_steps = self.steps
@@ -213,6 +237,9 @@ class Trainer:
                 self.logger.log(self.steps, epoch=self.epoch, **last_eval, train_steps_per_s=n / train_s,
                                 **{k: v for k, v in stats.items() if k != "fit"})
                 self.save()
+                line = self.on_evaluation(self.steps, last_eval) if self.on_evaluation is not None else None
+                if line:
+                    self._bar.write(line)
                 self._bar.set_postfix(score=f"{last_eval['score']:.1f}", L=f"{last_eval['L']:.0f}",
                                       R=f"{last_eval['R']:.1f}",
                                       task_r=f"{last_eval['task_reward']:.3f}")
@@ -220,16 +247,21 @@ class Trainer:
             self._bar.close()
             self.agent.stop()
             self.logger.close()
+            if self.collector is not None:
+                self.collector.close()  # its worker threads; a later train() steps the envs in this thread
         return last_eval
 
-    def _learn(self, core: Core, n: int) -> None:
-        """``n`` steps of training: environment steps for on-policy agents, gradient steps for offline ones."""
+    def _learn(self, core: Core | None, n: int) -> None:
+        """``n`` steps of training: environment steps for on-policy agents (``Core`` with one env, or the batched
+        collector), gradient steps for offline ones."""
         if getattr(self.agent, "offline", False):
             self.agent.fit_offline(n, callback=self._advance)
+        elif self.collector is not None:
+            self.collector.learn(n_steps=n, n_steps_per_fit=self.run.train.n_steps_per_fit)
         else:
             core.learn(n_steps=n, n_steps_per_fit=self.run.train.n_steps_per_fit, quiet=True)
 
-    def _on_fit(self, dataset: list) -> None:
+    def _on_fit(self, dataset: Any) -> None:
         self._advance(self.run.train.n_steps_per_fit)
 
     def _advance(self, n: int) -> None:
@@ -255,10 +287,13 @@ class Trainer:
 
     # ---- checkpoints ----------------------------------------------------------------------------------
     def state_dict(self) -> dict[str, Any]:
-        return {"format": CHECKPOINT_FORMAT, "run_config": self.run.to_dict(), "env_name": self.run.task,
-                "epoch": self.epoch, "steps": self.steps, "wall_s": self.wall_s,
-                "agent": self.agent.state_dict(), "env_rng": self.env._rng.bit_generator.state,
-                "torch_rng": torch.get_rng_state(), "numpy_rng": _numpy_global_state()}
+        state = {"format": CHECKPOINT_FORMAT, "run_config": self.run.to_dict(), "env_name": self.run.task,
+                 "epoch": self.epoch, "steps": self.steps, "wall_s": self.wall_s,
+                 "agent": self.agent.state_dict(), "env_rng": self.env._rng.bit_generator.state,
+                 "torch_rng": torch.get_rng_state(), "numpy_rng": _numpy_global_state()}
+        if self.collector is not None:  # every training environment's generator (env_rng: the first one's)
+            state["env_rngs"] = self.collector.rng_states()
+        return state
 
     def save(self) -> None:
         buffered = hasattr(self.agent, "save_buffer")  # off-policy: the replay buffer beside the checkpoint
@@ -302,6 +337,8 @@ class Trainer:
         if hasattr(self.agent, "load_buffer"):
             self._restore_buffer()
         self.env._rng.bit_generator.state = state["env_rng"]
+        if self.collector is not None:
+            self.collector.set_rng_states(state["env_rngs"])
         torch.set_rng_state(state["torch_rng"])
         _set_numpy_global_state(state["numpy_rng"])
         self.epoch, self.steps, self.wall_s = int(state["epoch"]), int(state["steps"]), float(state["wall_s"])

@@ -1,7 +1,10 @@
 """Training-loop throughput: on-policy (VAIL with our FastTRPO against Mushroom-RL's unmodified TRPO) and
 off-policy (IQ-Learn / LS-IQ / SQIL on our actor-critic loop against Mushroom-RL's own SAC).
 
-**On-policy** (``--section onpolicy``): VAIL on UnitreeH1.walk.
+**On-policy** (``--section onpolicy``): VAIL on UnitreeH1.walk, by default with its committed configuration
+(``--setup committed``: configs/defaults.yaml and configs/vail/UnitreeH1.walk.yaml: PD control, random starts,
+std_0 0.3, max_kl 0.01); ``--setup plain`` is LocoEnv's and AdversarialConfig's defaults (torque control, home
+starts, std_0 1.0, max_kl 5e-3), the setup of the figures measured before ``train.n_envs`` existed.
 
 Both learners run inside the same VAIL agent (same discriminator, expert data, standardizers, networks and
 hyperparameters: policy / critic MLPs [512, 256], 1000 env steps per fit, 25 CG iterations, max KL 5e-3,
@@ -13,11 +16,18 @@ Protocol per run: a fresh agent (seed 0), --warmup env steps (3 fits: torch warm
 discriminator step), then --steps env steps timed end to end with ``Core.learn`` (environment, action
 sampling, discriminator, TRPO, critic: everything). Variants are ``learner:torch_threads``; by default the
 fast learner with its default thread count (2 on 2 cores) and with 1 thread, and Mushroom's with the same
-default count. Runs alternate between variants; best of --repeats per variant, because other processes may
-share the cores and the best run is the one least disturbed. Then, with --profile, one more run per variant
-under cProfile, broken down by component (cProfile slows Python-heavy parts, so shares matter more than
-absolute times there; the fast learner's critic runs in a background thread, which cProfile does not see:
-its time is measured with a timer and reported as overlapped with the rollout).
+default count. ``learner:torch_threads:nN`` collects with N environments instead
+(:class:`~baselines.common.batched.BatchedCollector`, ``train.n_envs``: one batched policy forward per control
+step, each env contributing 1000 / N consecutive steps to a fit) and ``...:nN:tP`` steps them in P threads
+(default: one per core, at most 2; ``t1`` is the plain sequential batched loop); ``--collect-only`` times the
+collection alone (fits do nothing, the initial policy acts throughout). Each run reports env steps per
+second of wall time and per second of the process's CPU time (all its threads; what other processes on shared
+cores take does not count). Runs alternate between variants; best of --repeats per variant, because other
+processes may share the cores and the best run is the one least disturbed. Then, with --profile, one more run
+per variant under cProfile, broken down by component (cProfile slows Python-heavy parts, so shares matter more
+than absolute times there; the fast learner's critic runs in a background thread, which cProfile does not see:
+its time is measured with a timer and reported as overlapped with the rollout; batched variants are profiled
+with their envs stepped in the main thread).
 
 **Off-policy** (``--section offpolicy``): on UnitreeH1.walk.perfect (it has expert actions), our
 baselines.common.offpolicy loop (sqil, iq_learn, lsiq) against ``mushroom_rl.algorithms.actor_critic.SAC``
@@ -32,7 +42,7 @@ replay memory without updates (timed: collection alone), then ``--off-steps`` st
 not inflate). Runs alternate, best of ``--repeats``.
 
     .venv/bin/python bench/training_throughput.py [--section all|onpolicy|offpolicy] [--steps 20000]
-        [--warmup 3000] [--repeats 3] [--variants fast:2 fast:1 mushroom:2] [--profile]
+        [--warmup 3000] [--repeats 3] [--variants fast:2 fast:1 mushroom:2 fast:2:n4 fast:2:n8:t1] [--profile]
         [--off-steps 1000] [--off-warmup 2000] [--off-threads 1] [--off-variants sqil iq_learn lsiq sac]
 """
 
@@ -55,8 +65,10 @@ from mushroom_rl.core import Core  # noqa: E402
 from torch import nn  # noqa: E402
 
 from baselines import make_agent  # noqa: E402
+from baselines.common.batched import BatchedCollector, default_env_threads, env_seeds  # noqa: E402
 from baselines.common.fast_trpo import default_num_threads  # noqa: E402
 from baselines.common.networks import MushroomMLP, build_mlp  # noqa: E402
+from baselines.config import load_run_config  # noqa: E402
 
 ENV = "UnitreeH1.walk"
 STEPS_PER_FIT = 1000  # environment steps per fit: train.n_steps_per_fit of configs/defaults.yaml (adversarial)
@@ -76,6 +88,19 @@ PROFILE_ROWS = {
         ("  line search (1 FVP + trials)", "fast_trpo.py", "_line_search_t"),
         ("  waiting for the critic thread", "fast_trpo.py", "synchronize"),
     ],
+    "batched": [
+        ("envs: apply + physics + finish", "batched.py", "_step_env"),
+        ("policy.draw_actions (numpy, batch)", "policy.py", "draw_actions"),
+        ("agent.fit (all of it)", "adversarial.py", "fit_arrays"),
+        ("  discriminator training", "adversarial.py", "train_discriminator"),
+        ("  discriminator reward", "adversarial.py", "reward"),
+        ("  GAE (critic values)", "fast_trpo.py", "_gae"),
+        ("  Fisher operator setup", "fast_trpo.py", "_fisher_operator"),
+        ("  conjugate gradient (25 FVPs)", "fast_trpo.py", "_conjugate_gradient_t"),
+        ("  line search (1 FVP + trials)", "fast_trpo.py", "_line_search_t"),
+        ("  waiting for the critic thread", "fast_trpo.py", "synchronize"),
+        ("  batch to arrays (env by env)", "batched.py", "_batch"),
+    ],
     "mushroom": [
         ("env.step", "loco_env.py", "step"),
         ("policy.draw_action (torch)", "torch_policy.py", "draw_action"),
@@ -92,38 +117,93 @@ PROFILE_ROWS = {
 }
 
 
-def build(env: lm.LocoEnv, learner: str, threads: int, warmup: int) -> Core:
-    """A fresh seeded VAIL agent with ``learner``, warmed up for ``warmup`` env steps."""
-    agent = make_agent("vail", env, {"learner": learner, "n_threads": threads}, seed=0)
+Variant = tuple[str, int, int, int]  # learner, torch threads, environments (1: Core), env threads (0: default)
+_EXTRA_ENVS: list[lm.LocoEnv] = []  # the batched variants' environments beyond the first, built once
+
+
+class Collector:
+    """``learn(n_steps)`` through ``Core`` (one env) or a ``BatchedCollector`` (``n_envs`` envs)."""
+
+    def __init__(self, env: lm.LocoEnv, agent, n_envs: int, env_threads: int):
+        self.agent = agent
+        if n_envs == 1:
+            self.core, self.batched = Core(agent, env), None
+            return
+        while len(_EXTRA_ENVS) < n_envs - 1:
+            _EXTRA_ENVS.append(lm.LocoEnv.make(ENV, **ENV_KWARGS))
+        envs = [env, *_EXTRA_ENVS[:n_envs - 1]]
+        for e, seed in zip(envs, env_seeds(0, n_envs), strict=True):  # as train.n_envs seeds them (run seed 0)
+            e.seed(seed)
+        self.core, self.batched = None, BatchedCollector(agent, envs, n_threads=env_threads or None)
+
+    def learn(self, n_steps: int) -> None:
+        if self.batched is None:
+            self.core.learn(n_steps=n_steps, n_steps_per_fit=STEPS_PER_FIT, quiet=True)
+        else:
+            self.batched.learn(n_steps=n_steps, n_steps_per_fit=STEPS_PER_FIT)
+
+    def close(self) -> None:
+        if self.batched is not None:
+            self.batched.close()
+
+
+ENV_KWARGS: dict = {}  # --setup committed: the environment settings of configs/vail/UnitreeH1.walk.yaml
+AGENT_CONFIG: dict = {}  # and its agent settings (--setup plain: LocoEnv's and AdversarialConfig's defaults)
+
+
+def build(env: lm.LocoEnv, variant: Variant, warmup: int, collect_only: bool = False) -> Collector:
+    """A fresh seeded VAIL agent with the variant's learner and collection, warmed up for ``warmup`` env steps;
+    ``collect_only``: its fits do nothing (the initial policy collects throughout)."""
+    learner, threads, n_envs, env_threads = variant
+    agent = make_agent("vail", env, {**AGENT_CONFIG, "learner": learner, "n_threads": threads}, seed=0)
+    if collect_only:
+        agent.fit = agent.fit_arrays = lambda *args, **kwargs: None
     torch.set_num_threads(threads)
-    core = Core(agent, env)
+    collector = Collector(env, agent, n_envs, env_threads)
     if warmup:
-        core.learn(n_steps=warmup, n_steps_per_fit=STEPS_PER_FIT, quiet=True)
-    return core
+        collector.learn(warmup)
+    return collector
 
 
-def timed_run(core: Core, steps: int) -> float:
-    """Env steps per second of ``Core.learn`` over ``steps`` steps (includes waiting for background work)."""
-    t0 = time.perf_counter()
-    core.learn(n_steps=steps, n_steps_per_fit=STEPS_PER_FIT, quiet=True)
-    return steps / (time.perf_counter() - t0)
+def timed_run(collector: Collector, steps: int) -> tuple[float, float]:
+    """Env steps per second of wall time and of this process's CPU time (all threads) over ``steps`` steps of
+    ``learn`` (includes waiting for background work)."""
+    t0, c0 = time.perf_counter(), time.process_time()
+    collector.learn(steps)
+    rate, cpu_rate = steps / (time.perf_counter() - t0), steps / (time.process_time() - c0)
+    collector.close()
+    return rate, cpu_rate
 
 
-def label(variant: tuple[str, int]) -> str:
-    learner, threads = variant
-    return f"{LABELS[learner]}, {threads} thread{'s' if threads > 1 else ''}"
+def label(variant: Variant) -> str:
+    learner, threads, n_envs, env_threads = variant
+    text = f"{LABELS[learner]}, {threads} thread{'s' if threads > 1 else ''}"
+    if n_envs > 1:
+        p = env_threads or default_env_threads(n_envs)
+        text += f", {n_envs} envs in {p} thread{'s' if p > 1 else ''}"
+    return text
 
 
-def parse_variant(text: str) -> tuple[str, int]:
-    learner, _, threads = text.partition(":")
-    if learner not in LABELS or not threads.isdigit() or int(threads) < 1:
-        raise argparse.ArgumentTypeError(f"variant must be fast:N or mushroom:N, got {text!r}")
-    return learner, int(threads)
+def parse_variant(text: str) -> Variant:
+    parts = text.split(":")
+    learner, threads = parts[0], parts[1] if len(parts) > 1 else ""
+    n_envs = parts[2][1:] if len(parts) > 2 and parts[2].startswith("n") else "1"
+    env_threads = parts[3][1:] if len(parts) > 3 and parts[3].startswith("t") else "0"
+    if (learner not in LABELS or not (threads.isdigit() and n_envs.isdigit() and env_threads.isdigit())
+            or int(threads) < 1 or int(n_envs) < 1 or len(parts) > 4 or (len(parts) > 2 and parts[2][0] != "n")
+            or (len(parts) > 3 and parts[3][0] != "t") or STEPS_PER_FIT % int(n_envs)
+            or (learner == "mushroom" and int(n_envs) > 1)):
+        raise argparse.ArgumentTypeError(f"variant must be fast:T or mushroom:T, or fast:T:nN[:tP] (N environments "
+                                         f"dividing {STEPS_PER_FIT}, stepped in P threads), got {text!r}")
+    return learner, int(threads), int(n_envs), int(env_threads)
 
 
-def profile_run(env: lm.LocoEnv, variant: tuple[str, int], warmup: int, steps: int) -> None:
-    learner, threads = variant
-    core = build(env, learner, threads, warmup)
+def profile_run(env: lm.LocoEnv, variant: Variant, warmup: int, steps: int) -> None:
+    learner, threads, n_envs, _ = variant
+    if n_envs > 1:  # cProfile sees the main thread only: step the envs there
+        variant = (learner, threads, n_envs, 1)
+    collector = build(env, variant, warmup)
+    core = collector.batched or collector.core
     critic_time = [0.0]
     if learner == "fast":  # the critic thread is invisible to cProfile: time it directly
         fit_critic = core.agent.learner._fit_critic
@@ -138,9 +218,10 @@ def profile_run(env: lm.LocoEnv, variant: tuple[str, int], warmup: int, steps: i
     profiler = cProfile.Profile()
     t0 = time.perf_counter()
     profiler.enable()
-    core.learn(n_steps=steps, n_steps_per_fit=STEPS_PER_FIT, quiet=True)
+    collector.learn(steps)
     profiler.disable()
     wall = time.perf_counter() - t0
+    collector.close()
     stats = pstats.Stats(profiler).stats  # {(file, line, function): (cc, nc, tottime, cumtime, callers)}
 
     def cumulative(file_name: str, function: str) -> float:
@@ -150,13 +231,14 @@ def profile_run(env: lm.LocoEnv, variant: tuple[str, int], warmup: int, steps: i
     print(f"\n{label(variant)}: cProfile over {steps} env steps, {wall:.2f} s wall "
           f"({steps / wall:,.0f} steps/s under the profiler)")
     print(f"  {'component':36s} {'ms / 1000 steps':>16s} {'% of wall':>10s}")
-    rows = PROFILE_ROWS[learner]
+    rows = PROFILE_ROWS["batched" if n_envs > 1 else learner]
     times = {name: cumulative(f, fn) for name, f, fn in rows}
     for name, _, _ in rows:
         print(f"  {name:36s} {times[name] * 1e3 * per_k:16.1f} {100 * times[name] / wall:9.1f}%")
-    top_level = times["env.step"] + times[rows[1][0]] + times["agent.fit (all of it)"]
+    top_level = times[rows[0][0]] + times[rows[1][0]] + times["agent.fit (all of it)"]
     rest = wall - top_level
-    print(f"  {'Core loop + dataset bookkeeping':36s} {rest * 1e3 * per_k:16.1f} {100 * rest / wall:9.1f}%")
+    name = "collector loop + batch" if n_envs > 1 else "Core loop + dataset bookkeeping"
+    print(f"  {name:36s} {rest * 1e3 * per_k:16.1f} {100 * rest / wall:9.1f}%")
     if learner == "fast":
         print(f"  {'critic fit (background thread)':36s} {critic_time[0] * 1e3 * per_k:16.1f} "
               f"{'overlapped':>10s}")
@@ -252,26 +334,45 @@ def offpolicy_section(args: argparse.Namespace) -> None:
 
 def onpolicy_section(args: argparse.Namespace) -> None:
     default = default_num_threads()
-    variants = args.variants or list(dict.fromkeys([("fast", default), ("fast", 1), ("mushroom", default)]))
+    variants = args.variants or list(dict.fromkeys([("fast", default, 1, 0), ("fast", 1, 1, 0),
+                                                    ("mushroom", default, 1, 0), ("fast", default, 8, 0)]))
 
-    env = lm.LocoEnv.make(ENV)
+    if args.setup == "committed":
+        run = load_run_config(ENV, "vail")
+        if run.train.n_steps_per_fit != STEPS_PER_FIT:
+            raise SystemExit(f"configs give {run.train.n_steps_per_fit} steps per fit; the bench uses {STEPS_PER_FIT}")
+        ENV_KWARGS.update(run.env)
+        AGENT_CONFIG.update(run.agent.to_dict())
+    env = lm.LocoEnv.make(ENV, **ENV_KWARGS)
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    print(f"VAIL on {ENV}: {args.steps} timed env steps per run after {args.warmup} warm-up steps, "
+    print(f"{'Collection only (no fits), ' if args.collect_only else ''}VAIL on {ENV} ({args.setup} setup: env "
+          f"{ENV_KWARGS or 'defaults'}, agent "
+          f"{ {k: AGENT_CONFIG[k] for k in ('std_0', 'max_kl')} if AGENT_CONFIG else 'defaults'}): "
+          f"{args.steps} timed env steps per run after {args.warmup} warm-up steps, "
           f"best of {args.repeats}; torch {torch.__version__}, {cores} cores, "
           f"{platform.processor() or platform.machine()}, load average {os.getloadavg()[0]:.2f} at start")
-    results: dict[tuple[str, int], list[float]] = {v: [] for v in variants}
+    results: dict[Variant, list[tuple[float, float]]] = {v: [] for v in variants}
     for _ in range(args.repeats):  # alternate, so that a disturbance hits every variant alike
-        for learner, threads in variants:
-            results[(learner, threads)].append(timed_run(build(env, learner, threads, args.warmup), args.steps))
-    print(f"\n  {'variant':42s} {'env steps/s of each run':28s} {'best':>8s}")
+        for variant in variants:
+            results[variant].append(timed_run(build(env, variant, args.warmup, args.collect_only), args.steps))
+    print(f"\n  {'variant':58s} {'env steps/s of each run':26s} {'best':>7s} {'per CPU-s, best':>16s}")
     for variant, runs in results.items():
-        print(f"  {label(variant):42s} {', '.join(f'{r:,.0f}' for r in runs):28s} {max(runs):8,.0f}")
-    best = {learner: max((max(r) for (name, _), r in results.items() if name == learner), default=None)
-            for learner in LABELS}
+        print(f"  {label(variant):58s} {', '.join(f'{r:,.0f}' for r, _ in runs):26s} {max(r for r, _ in runs):7,.0f} "
+              f"{max(c for _, c in runs):16,.0f}")
+    best = {learner: max((max(r for r, _ in runs) for v, runs in results.items() if v[0] == learner and v[2] == 1),
+                         default=None) for learner in LABELS}
+    if args.collect_only:
+        return
     if best["fast"] and best["mushroom"]:
         print(f"\n  speed-up, best fast / best mushroom: {best['fast'] / best['mushroom']:.2f}x")
     if best["fast"]:
         print(f"  goal: fast >= 4,000 env steps/s on 2 cores -> {'met' if best['fast'] >= 4000 else 'NOT met'}")
+    batched = [max(r for r, _ in runs) for v, runs in results.items() if v[0] == "fast" and v[2] > 1]
+    if batched:
+        top = max(batched)
+        print(f"  goal: batched (train.n_envs > 1) >= 12,000 env steps/s on 2 cores -> "
+              f"{'met' if top >= 12000 else 'NOT met'} (best {top:,.0f}"
+              + (f", {top / best['fast']:.2f}x the best single-env fast run)" if best["fast"] else ")"))
     if args.profile:
         for variant in variants:
             profile_run(env, variant, args.warmup, args.profile_steps)
@@ -284,6 +385,12 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--variants", nargs="+", type=parse_variant, default=None,
                         help="learner:threads, e.g. fast:2 fast:1 mushroom:2 (the default on 2 cores)")
+    parser.add_argument("--setup", choices=("committed", "plain"), default="committed",
+                        help="on-policy: the committed config of VAIL on UnitreeH1.walk (PD control, random starts, "
+                             "std_0 0.3, max_kl 0.01), or LocoEnv's and AdversarialConfig's defaults (the setup of "
+                             "the figures before train.n_envs)")
+    parser.add_argument("--collect-only", action="store_true",
+                        help="on-policy: time the collection alone (fits do nothing: the initial policy acts)")
     parser.add_argument("--profile", action="store_true", help="also profile one run per variant")
     parser.add_argument("--profile-steps", type=int, default=10_000)
     parser.add_argument("--section", choices=("all", "onpolicy", "offpolicy"), default="all")

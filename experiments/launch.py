@@ -28,6 +28,7 @@ from baselines.config import (  # noqa: E402
     parse_overrides,
 )
 from baselines.training import Trainer  # noqa: E402
+from experiments.reported_curves import comparison_line, reported_curve  # noqa: E402
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
@@ -93,6 +94,13 @@ def _note(text: str) -> None:
     print(f"note: {text}", file=sys.stderr)
 
 
+def _compare_with_reported(run: Any) -> Callable[[int, dict[str, float]], str]:
+    """At every evaluation: this run's score and L beside our reported run's at the same step count
+    (``results/runs``, :mod:`reported_curves`)."""
+    curve = reported_curve(run.task, run.algorithm)
+    return lambda steps, figures: comparison_line(run.task, run.algorithm, steps, figures, curve)
+
+
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     if args.resume and (args.set or args.epoch_steps is not None):
@@ -112,7 +120,7 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(args.out) if args.out else run_dir("runs", args.env, args.algo, args.seed)
     try:
         trainer = Trainer(run, out, resume=args.resume, progress=not args.quiet, init_from=args.init_from,
-                          n_threads=args.threads)
+                          n_threads=args.threads, on_evaluation=_compare_with_reported(run))
     except (OSError, ValueError) as err:  # our errors name the file or value; nothing was created
         print(f"error: {err}", file=sys.stderr)
         return 2

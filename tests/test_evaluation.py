@@ -127,7 +127,9 @@ def _without_trajectory(env, k):
     return held_qpos, held_obs
 
 
-EPISODES = 40  # at 12 and 24, VAIL and random came within 3% on the joint Fréchet distance on a CPU whose OpenBLAS built the dataset with other last bits
+# At 12 and 24 episodes VAIL and random came within 3% on the joint Frechet distance (and swapped) on a CPU whose
+# OpenBLAS built the dataset with other last bits.
+EPISODES = 40
 
 
 def test_metrics_rank_held_out_expert_above_vail_above_random():

@@ -1,6 +1,8 @@
 """The loop shared by GAIL, VAIL and GAIfO: an adversarial-imitation ``Agent`` around a TRPO learner.
 
-``Core`` collects ``n_steps_per_fit`` transitions with the policy, then calls ``fit(dataset)``, which
+``Core`` collects ``n_steps_per_fit`` transitions with the policy, then calls ``fit(dataset)`` (or, with several
+environments, :class:`~baselines.common.batched.BatchedCollector` calls ``fit_arrays`` with their transitions as
+arrays, each environment's segment contiguous), which
 
 1. updates the observation standardizer shared by policy and critic (once per fit, on the whole batch);
 2. every ``train_disc_every``-th fit, trains the discriminator on the batch (label 0) against as many expert
@@ -186,8 +188,20 @@ class AdversarialImitation(Agent):
 
     # ---- the fit ----------------------------------------------------------------------------------------
     def fit(self, dataset: list[tuple], **info: Any) -> None:
+        """One fit on a Mushroom dataset (``Core``'s list of ``(s, a, r, s', absorbing, last)``)."""
+        self._fit(*dataset_to_arrays(dataset), dataset=dataset)
+
+    def fit_arrays(self, state: np.ndarray, action: np.ndarray, env_reward: np.ndarray, next_state: np.ndarray,
+                   absorbing: np.ndarray, last: np.ndarray) -> None:
+        """One fit on the six arrays of ``dataset_to_arrays`` (float32 states, actions and rewards, bool flags),
+        transitions in time order within each trajectory segment and ``last`` true at each segment's end (an
+        episode end, or where a segment stops inside an episode: the GAE treats both as ends, as it treats the
+        final transition of a batch). What :class:`~baselines.common.batched.BatchedCollector` hands over."""
+        self._fit(state, action, env_reward, next_state, absorbing, last, dataset=None)
+
+    def _fit(self, x: np.ndarray, u: np.ndarray, env_reward: np.ndarray, xn: np.ndarray, absorbing: np.ndarray,
+             last: np.ndarray, dataset: list[tuple] | None) -> None:
         self.synchronize()  # the previous fit's critic may still be training; it reads obs_standardizer
-        x, u, env_reward, xn, absorbing, last = dataset_to_arrays(dataset)
         self.fit_count += 1
         self.obs_standardizer.update(x)
         stats: dict[str, float] = {"fit": self.fit_count, "env_reward_mean": float(env_reward.mean())}
@@ -198,8 +212,10 @@ class AdversarialImitation(Agent):
         stats["disc_reward_mean"] = float(reward.mean())
         if isinstance(self.learner, FastTRPO):
             self.learner.fit_arrays(x, u, reward, xn, absorbing, last)
-        else:
+        elif dataset is not None:
             self.learner.fit([(t[0], t[1], r, *t[3:]) for t, r in zip(dataset, reward.tolist(), strict=True)])
+        else:
+            self.learner.fit(list(zip(x, u, reward.tolist(), xn, absorbing.tolist(), last.tolist(), strict=True)))
         self._fit_stats = stats
 
     def synchronize(self) -> None:

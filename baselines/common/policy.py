@@ -5,8 +5,9 @@ The policy is a Mushroom-RL ``TorchPolicy`` (so Mushroom's TRPO can train it too
 * the **torch path** (``distribution_t``, ``log_prob_t``, ...) used by the learners on whole batches;
 * the **numpy path** (``draw_action``) used by ``Core`` at every environment step. A 33 -> 512 -> 256 -> 11
   MLP on one observation costs ~11 us in numpy against ~27 us in torch (and ~150 us through Mushroom's
-  ``GaussianTorchPolicy``, which also builds a ``MultivariateNormal`` per step). The numpy copies of the
-  weights are rebuilt lazily after ``set_weights`` / ``load_state_dict`` or a standardizer update.
+  ``GaussianTorchPolicy``, which also builds a ``MultivariateNormal`` per step); ``draw_actions`` does one
+  forward pass for a batch of states (the N environments of :mod:`baselines.common.batched`). The numpy
+  copies of the weights are rebuilt lazily after ``set_weights`` / ``load_state_dict`` or a standardizer update.
 
 Exploration noise comes from the policy's own ``numpy.random.Generator`` (part of its state dict), so a
 seeded agent collects the same actions run after run and after a resume.
@@ -76,6 +77,17 @@ class GaussianPolicy(EvaluationModeMixin, TorchPolicy):
         if self.deterministic:
             return mean.astype(np.float64)
         return mean + self._np_std * self.rng.standard_normal(self.act_dim)
+
+    def draw_actions(self, states: np.ndarray) -> np.ndarray:
+        """Actions for a batch of states ``(n, obs_dim)``: one forward pass, noise ``(n, act_dim)`` from ``rng``.
+
+        Row ``i`` is what ``draw_action(states[i])`` would give; the noise stream is consumed in the same
+        order as ``n`` calls of ``draw_action`` on the rows in turn.
+        """
+        mean = self.mean_numpy(states)
+        if self.deterministic:
+            return mean.astype(np.float64)
+        return mean + self._np_std * self.rng.standard_normal(mean.shape)
 
     def mean_numpy(self, state: np.ndarray) -> np.ndarray:
         """The mean action for one state (shape ``(obs_dim,)``) or a batch, in float32 numpy."""

@@ -477,10 +477,25 @@ class LocoEnv(TrajectoryMixin, EmbodimentModelMixin, MuJoCo):
         return self._obs
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, dict[str, Any]]:
+        action = self.apply_action(action)
+        self.step_physics()
+        return self.finish_step(action)
+
+    def apply_action(self, action: np.ndarray) -> np.ndarray:
+        """The first part of ``step``: check ``action``, clip it to [-1, 1] and write the ctrl it commands.
+
+        Returns the clipped copy, which ``finish_step`` takes. ``step(a)`` is ``apply_action``, ``step_physics``,
+        ``finish_step``; a batched collector calls the three itself to run the physics of several environments
+        in threads (``mj_step`` releases the GIL).
+        """
         action = self._check_action(action)
         np.clip(action, -1.0, 1.0, out=action)
         self._ctrl_view[:] = self.action_to_ctrl(action)
-        self.step_physics()
+        return action
+
+    def finish_step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, dict[str, Any]]:
+        """The last part of ``step``, after ``step_physics``: observation, absorbing flag, reward and info, for the
+        clipped ``action`` that ``apply_action`` returned."""
         obs = self._build_observation()
         diverged = not _sum_is_finite(obs)
         if diverged:
