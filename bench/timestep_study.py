@@ -45,7 +45,8 @@ CONFIGS = [
     ("implicitfast", INT.mjINT_IMPLICITFAST, 0.005),
 ]
 # The musculoskeletal model, whose per-step cost is dominated by muscle paths: (label, integrator, dt, coarse) where
-# coarse applies myo_human.apply_coarse_step_settings (the environment's default) and otherwise myo-sim's values.
+# coarse applies myo_human.apply_coarse_step_settings (the environment's default) and otherwise myo-sim's values;
+# a label ending in "+ reuse" reuses the implicit factorisation within a control step (core/implicit_reuse.py).
 MUSCLE_CONFIGS = [
     ("implicitfast", INT.mjINT_IMPLICITFAST, 0.001, False),
     ("Euler", INT.mjINT_EULER, 0.002, False),
@@ -57,6 +58,7 @@ MUSCLE_CONFIGS = [
     ("Euler", INT.mjINT_EULER, 0.005, False),
     ("implicitfast", INT.mjINT_IMPLICITFAST, 0.005, False),
     ("implicitfast", INT.mjINT_IMPLICITFAST, 0.005, True),
+    ("implicitfast + reuse", INT.mjINT_IMPLICITFAST, 0.005, True),  # the environment's default
     ("implicitfast", INT.mjINT_IMPLICITFAST, 0.01, True),
 ]
 REFERENCE = (INT.mjINT_IMPLICITFAST, 0.00025)
@@ -68,13 +70,16 @@ def env_class(name: str) -> type[LocoEnv]:
     return environment_class(name.split(".")[0])
 
 
-def make(name: str, integrator: int, dt: float, control: str | None = None, coarse: bool = True) -> LocoEnv:
+def make(name: str, integrator: int, dt: float, control: str | None = None, coarse: bool = True,
+         reuse: bool = False) -> LocoEnv:
     """``name`` at ``dt`` (10 ms / dt physics steps per control step) with ``integrator``; muscle models with
-    ``coarse`` False get myo-sim's own settings back."""
+    ``coarse`` False get myo-sim's own settings back; ``reuse``: physics steps 2..n reuse the first one's implicit
+    factorisation (core/implicit_reuse.py), else exact ``mj_step``."""
     if control == "pd" and "pd" not in env_class(name).CONTROLS:
         control = None  # muscle models: the "hold" run uses constant excitation instead
     env = LocoEnv.make(name, timestep=dt, n_substeps=int(round(0.01 / dt)), control=control, reward_type="none")
     env.model.opt.integrator = integrator
+    env.reuse_implicit_factor = reuse
     if env.control == "muscle" and not coarse:
         restore_myo_sim_settings(env.model)
     return env
@@ -118,9 +123,8 @@ def bang_bang_max_speed(name: str, control_steps: int, integrator: int | None = 
     """
     cls = env_class(name)
     dt = cls.TIMESTEP if dt is None else dt
-    env = make(name, cls.INTEGRATOR if integrator is None else integrator, dt, coarse=coarse)
-    if reuse_implicit_factor is not None:  # default: the environment's REUSE_IMPLICIT_FACTOR
-        env.reuse_implicit_factor = reuse_implicit_factor
+    reuse = cls.REUSE_IMPLICIT_FACTOR if reuse_implicit_factor is None else reuse_implicit_factor
+    env = make(name, cls.INTEGRATOR if integrator is None else integrator, dt, coarse=coarse, reuse=reuse)
     m, d = env.model, env.data
     hinges = np.array([m.jnt_dofadr[j] for j in range(m.njnt) if m.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE])
     rng = np.random.default_rng(seed)
@@ -161,7 +165,8 @@ def study(name: str, steps: int, bang_steps: int) -> None:
     long = rng.uniform(-1, 1, size=(steps, n_act))
     configs = MUSCLE_CONFIGS if muscle else [(*c, True) for c in CONFIGS]
     for label, integrator, dt, coarse in configs:
-        env = make(name, integrator, dt, coarse=coarse)
+        reuse = label.endswith("+ reuse")  # physics steps 2..n reuse the first one's factorisation
+        env = make(name, integrator, dt, coarse=coarse, reuse=reuse)
         env.reset()
         diverged, max_vel = 0, 0.0
         t0 = time.perf_counter()
@@ -173,10 +178,12 @@ def study(name: str, steps: int, bang_steps: int) -> None:
                 env.reset()
         sps = steps / (time.perf_counter() - t0)
         e_short = errors(trajectory(env, short), ref_short)
-        e_hold = errors(trajectory(make(name, integrator, dt, control="pd", coarse=coarse), hold), ref_hold)
+        e_hold = errors(trajectory(make(name, integrator, dt, control="pd", coarse=coarse, reuse=reuse), hold),
+                        ref_hold)
         row = f"| {name} | {label} | {dt * 1e3:g} x {int(round(0.01 / dt))} | "
         if muscle:
-            bang, _, joint, inside = bang_bang_max_speed(name, bang_steps, integrator, dt, coarse)
+            bang, _, joint, inside = bang_bang_max_speed(name, bang_steps, integrator, dt, coarse,
+                                                         reuse_implicit_factor=reuse)
             row = (f"| {name} | {label} | {'coarse' if coarse else 'myo-sim'} | {dt * 1e3:g} x {int(round(0.01 / dt))}"
                    f" | {sps:,.0f} | {diverged} | {max_vel:.0f} | {bang:.0f} ({joint}) / {inside:.0f} | ")
         else:
