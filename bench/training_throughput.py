@@ -75,30 +75,27 @@ STEPS_PER_FIT = 1000  # environment steps per fit: train.n_steps_per_fit of conf
 LABELS = {"fast": "fast (FastTRPO)", "mushroom": "mushroom (unmodified TRPO)"}
 
 # Components shown in the profile: (label, file name, function name); cumulative time of that function.
+FAST_FIT_ROWS = [  # inside the fit of FastTRPO's VAIL, with one env or several
+    ("  discriminator training", "adversarial.py", "train_discriminator"),
+    ("  discriminator reward", "adversarial.py", "reward"),
+    ("  GAE (critic values)", "fast_trpo.py", "_gae"),
+    ("  Fisher operator setup", "fast_trpo.py", "_fisher_operator"),
+    ("  conjugate gradient (25 FVPs)", "fast_trpo.py", "_conjugate_gradient_t"),
+    ("  line search (1 FVP + trials)", "fast_trpo.py", "_line_search_t"),
+    ("  waiting for the critic thread", "fast_trpo.py", "synchronize"),
+]
 PROFILE_ROWS = {
     "fast": [
         ("env.step", "loco_env.py", "step"),
         ("policy.draw_action (numpy)", "policy.py", "draw_action"),
         ("agent.fit (all of it)", "adversarial.py", "fit"),
-        ("  discriminator training", "adversarial.py", "train_discriminator"),
-        ("  discriminator reward", "adversarial.py", "reward"),
-        ("  GAE (critic values)", "fast_trpo.py", "_gae"),
-        ("  Fisher operator setup", "fast_trpo.py", "_fisher_operator"),
-        ("  conjugate gradient (25 FVPs)", "fast_trpo.py", "_conjugate_gradient_t"),
-        ("  line search (1 FVP + trials)", "fast_trpo.py", "_line_search_t"),
-        ("  waiting for the critic thread", "fast_trpo.py", "synchronize"),
+        *FAST_FIT_ROWS,
     ],
     "batched": [
         ("envs: apply + physics + finish", "batched.py", "_step_env"),
         ("policy.draw_actions (numpy, batch)", "policy.py", "draw_actions"),
         ("agent.fit (all of it)", "adversarial.py", "fit_arrays"),
-        ("  discriminator training", "adversarial.py", "train_discriminator"),
-        ("  discriminator reward", "adversarial.py", "reward"),
-        ("  GAE (critic values)", "fast_trpo.py", "_gae"),
-        ("  Fisher operator setup", "fast_trpo.py", "_fisher_operator"),
-        ("  conjugate gradient (25 FVPs)", "fast_trpo.py", "_conjugate_gradient_t"),
-        ("  line search (1 FVP + trials)", "fast_trpo.py", "_line_search_t"),
-        ("  waiting for the critic thread", "fast_trpo.py", "synchronize"),
+        *FAST_FIT_ROWS,
         ("  batch to arrays (env by env)", "batched.py", "_batch"),
     ],
     "mushroom": [
