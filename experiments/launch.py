@@ -97,7 +97,7 @@ def _note(text: str) -> None:
 def _compare_with_reported(run: Any) -> Callable[[int, dict[str, float]], str]:
     """At every evaluation: this run's score and L beside our reported run's at the same step count
     (``results/runs``, :mod:`reported_curves`)."""
-    curve = reported_curve(run.task, run.algorithm)
+    curve = reported_curve(run.task, run.algorithm, config=run.to_dict())
     return lambda steps, figures: comparison_line(run.task, run.algorithm, steps, figures, curve)
 
 
