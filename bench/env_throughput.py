@@ -2,7 +2,8 @@
 
 Protocol, per environment (default settings): 5000 steps of uniform random actions in [-1, 1] with
 termination on and a reset after each fall, timed end to end (env.step + env.reset). Then the same
-5000 control steps as raw ``mj_step(model, data, n_substeps)`` on the same model, replaying the same
+5000 control steps as raw physics (``env.step_physics()``: ``mj_step(model, data, n_substeps)``, or the
+muscle model's reused factorisation) on the same model, replaying the same
 controls from the same start states, with ``mj_resetData`` + the start state at the same resets.
 Both runs visit identical states (checked). Best of --repeats runs, after one warm-up.
 
@@ -19,7 +20,6 @@ import mujoco
 import numpy as np
 
 from loco_mujoco import LocoEnv
-from loco_mujoco.core import implicit_reuse
 
 DEFAULT_ENVS = ["UnitreeH1.walk", "Talos.walk", "UnitreeA1.simple", "Atlas.walk", "HumanoidTorque.walk",
                 "HumanoidTorque4Ages.walk.all", "HumanoidMuscle.walk", "HumanoidMuscle4Ages.walk.all"]
@@ -43,10 +43,8 @@ def run_env(env: LocoEnv, actions: np.ndarray) -> tuple[float, list[int], np.nda
 
 
 def run_raw(env: LocoEnv, ctrls: np.ndarray, resets: list[int]) -> tuple[float, np.ndarray]:
-    """Seconds for the same control sequence as raw mj_step calls with the same resets."""
-    m, d, n_sub = env.model, env.data, env._n_substeps
-    # the physics env.step runs: mj_step, or with the implicit factorisation reused (core/implicit_reuse.py)
-    step = implicit_reuse.step_reusing_factor if env.reuse_implicit_factor else mujoco.mj_step
+    """Seconds for the same control sequence as raw physics steps (env.step_physics) with the same resets."""
+    m, d = env.model, env.data
     start_qpos = env._init_qpos.copy()
     reset_after = np.zeros(len(ctrls), dtype=bool)
     reset_after[resets] = True
@@ -56,7 +54,7 @@ def run_raw(env: LocoEnv, ctrls: np.ndarray, resets: list[int]) -> tuple[float, 
     t0 = time.perf_counter()
     for i in range(len(ctrls)):
         d.ctrl[:] = ctrls[i]
-        step(m, d, n_sub)
+        env.step_physics()  # the physics env.step runs: mj_step, or with the implicit factorisation reused
         if reset_after[i]:
             mujoco.mj_resetData(m, d)
             d.qpos[:] = start_qpos
