@@ -134,6 +134,21 @@ def run_config_from_checkpoint(state: dict[str, Any]) -> RunConfig:
                      init_from=c.get("init_from"))
 
 
+def run_config_from_directory(run_dir: str | Path) -> RunConfig:
+    """The configuration of the run in ``run_dir``: its checkpoint's, or, for a finished run that keeps only its
+    log and export, its ``config.yaml`` (written by the same :class:`Trainer` from the same configuration)."""
+    run_dir = Path(run_dir)
+    if (run_dir / CHECKPOINT).exists():
+        return run_config_from_checkpoint(load_checkpoint(run_dir))
+    config = run_dir / "config.yaml"
+    if not config.exists():
+        raise FileNotFoundError(f"{run_dir} holds neither {CHECKPOINT} nor config.yaml: not a run directory")
+    values = yaml.safe_load(config.read_text())
+    if not isinstance(values, dict) or not {"task", "algorithm", "seed", "env", "train", "agent"} <= set(values):
+        raise ValueError(f"{config} is not a run's resolved configuration (task, algorithm, seed, env, train, agent)")
+    return run_config_from_checkpoint({"run_config": {"sources": [], **values}})
+
+
 def migrate_run_config(c: dict[str, Any]) -> dict[str, Any]:
     """A run config of an older checkpoint in today's layout: ``n_steps_per_fit`` moved from agent to train."""
     c = {**c, "agent": dict(c["agent"]), "train": dict(c["train"])}

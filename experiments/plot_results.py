@@ -26,8 +26,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # run from a ch
 from baselines.config import SECTIONS  # noqa: E402
 from baselines.training import (  # noqa: E402
     INIT_FROM_PROGRESS,
-    load_checkpoint,
-    run_config_from_checkpoint,
+    run_config_from_directory,
 )
 from loco_mujoco.evaluation.references import references  # noqa: E402
 
@@ -71,8 +70,7 @@ def plot_run(run_dir: Path, out_dir: Path | None = None, force: bool = False,
     run_dir = Path(run_dir)
     out_dir = Path(out_dir) if out_dir is not None else run_dir
     written = set() if written is None else written
-    state = load_checkpoint(run_dir)
-    run = run_config_from_checkpoint(state)
+    run = run_config_from_directory(run_dir)
     stem = output_stem(run)
     targets = [out_dir / f"{stem}{suffix}" for suffix in (".csv", ".png", "_references.json")]
     existing = [str(t) for t in targets if t.exists() and t.resolve() not in written]

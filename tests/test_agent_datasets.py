@@ -11,7 +11,9 @@ import loco_mujoco as lm
 from loco_mujoco import agent_datasets
 from loco_mujoco.policy_export import MAX_BYTES, ExportError, PolicyExport
 
-VAIL_CHECKPOINT = "results/runs/UnitreeH1.walk_vail_from15.3M/checkpoint.pt"
+# An unfinished run keeps its checkpoint in git (finished ones keep only their export): GAIfO, 4.1M of 20M steps.
+GAIFO_CHECKPOINT = "results/runs/UnitreeH1.walk_gaifo/checkpoint.pt"
+GAIFO_EXPORT = agent_datasets.pretrained_root() / "UnitreeH1.walk/gaifo/seed0"
 VAIL_EXPORT = agent_datasets.pretrained_root() / "UnitreeH1.walk/vail/seed0"
 
 
@@ -19,20 +21,20 @@ def test_export_acts_exactly_like_its_checkpoint(tmp_path):
     from baselines.export import export_checkpoint
     from baselines.training import build, load_checkpoint, make_env, run_config_from_checkpoint
 
-    path = export_checkpoint(VAIL_CHECKPOINT, tmp_path / "export", evaluation={"note": "test"})
+    path = export_checkpoint(GAIFO_CHECKPOINT, tmp_path / "export", evaluation={"note": "test"})
     assert sum(f.stat().st_size for f in path.iterdir()) < MAX_BYTES
     export = PolicyExport.load(path)
     assert export.task == "UnitreeH1.walk" and export.env_kwargs["control"] == "pd"
-    assert export.card["algorithm"] == "vail" and export.card["steps"] == 38_200_000
-    state = load_checkpoint(VAIL_CHECKPOINT)
+    assert export.card["algorithm"] == "gaifo" and export.card["steps"] == 4_100_000
+    state = load_checkpoint(GAIFO_CHECKPOINT)
     run = run_config_from_checkpoint(state)
     _, agent = build(run)
     agent.load_state_dict(state["agent"])
     obs = make_env(run, seed=0).dataset_observations()[:300]
     np.testing.assert_array_equal(export.mean_action(obs), agent.policy.mean_numpy(obs))
-    assert export.sha256 == PolicyExport.load(VAIL_EXPORT).sha256  # the committed export is this checkpoint's
+    assert export.sha256 == PolicyExport.load(GAIFO_EXPORT).sha256  # the committed export is this checkpoint's
     with pytest.raises(FileExistsError, match="already holds"):
-        export_checkpoint(VAIL_CHECKPOINT, path)
+        export_checkpoint(GAIFO_CHECKPOINT, path)
     rng = np.random.default_rng(0)
     sample = export.draw_action(obs[0], rng)
     assert sample.shape == (11,) and not np.array_equal(sample, export.draw_action(obs[0]))

@@ -107,7 +107,7 @@ def test_standing_still_scores_at_most_5(task):
     assert scores["zero"] <= 5.0 and scores["hold"] <= 5.0, scores
 
 
-VAIL_CHECKPOINT = "results/runs/UnitreeH1.walk_vail_from15.3M/checkpoint.pt"
+VAIL_PRETRAINED = ["--pretrained", "UnitreeH1.walk", "vail"]  # the committed VAIL agent (38.2M steps)
 
 
 def _without_trajectory(env, k):
@@ -137,14 +137,11 @@ def test_metrics_rank_held_out_expert_above_vail_above_random():
     agent, which is closer than a random policy, on every trajectory distance, the gait deviation and every
     distribution metric."""
     from baselines.common.evaluation import evaluate_agent
-    from baselines.training import build, load_checkpoint, make_env, run_config_from_checkpoint
+    from baselines.pretrained import load
     from loco_mujoco.evaluation.imitation import imitation_metrics
 
-    state = load_checkpoint(VAIL_CHECKPOINT)
-    run = run_config_from_checkpoint(state)
-    _, agent = build(run)
-    agent.load_state_dict(state["agent"])
-    env = make_env(run, seed=0)
+    agent = load("UnitreeH1.walk", "vail")
+    env = lm.LocoEnv.make(agent.task, seed=0, **agent.card["env"])
     held_qpos, held_obs = _without_trajectory(env, 0)
     mask = env.get_kinematic_obs_mask()
     rest = env.dataset_observations()[:, mask]
@@ -173,7 +170,7 @@ def test_evaluate_cli_reports_score_interval_and_metrics(tmp_path):
     from experiments.evaluate import main
 
     out = tmp_path / "eval.json"
-    assert main([VAIL_CHECKPOINT, "--episodes", "4", "--metrics", "--json", str(out)]) == 0
+    assert main([*VAIL_PRETRAINED, "--episodes", "4", "--metrics", "--json", str(out)]) == 0
     res = json.loads(out.read_text())
     det = res["deterministic"]
     assert det["score"]["n"] == 4 and len(det["returns"]) == 4
@@ -188,7 +185,7 @@ def test_evaluate_cli_reports_score_interval_and_metrics(tmp_path):
     assert set(m["gait"]["agent"]) == set(m["gait"]["expert"]) and "cadence" in m["gait"]["agent"]
     assert 0.5 <= m["distribution"]["expert"]["classifier_auc"] < m["distribution"]["agent"]["classifier_auc"]
     with pytest.raises(SystemExit):
-        main([VAIL_CHECKPOINT, "--episodes", "0"])
+        main([*VAIL_PRETRAINED, "--episodes", "0"])
 
 
 def test_evaluate_cli_lists_references(tmp_path, capsys):

@@ -21,7 +21,8 @@ from loco_mujoco.policy_export import ExportError, PolicyExport
 
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
-VAIL_CHECKPOINT = REPO / "results/runs/UnitreeH1.walk_vail_from15.3M/checkpoint.pt"
+VAIL_RUN = REPO / "results/runs/UnitreeH1.walk_vail_from15.3M"  # finished: its log and config; the agent is exported
+VAIL_PRETRAINED = ["--pretrained", "UnitreeH1.walk", "vail"]
 
 
 # ---- arguments ------------------------------------------------------------------------------------------
@@ -107,11 +108,11 @@ def test_outputs_that_cannot_be_written_fail_before_the_work(tmp_path):
     blocker = tmp_path / "a_file"
     blocker.write_text("x")
     start = time.perf_counter()
-    assert evaluate([str(VAIL_CHECKPOINT), "--episodes", "1", "--json", str(blocker / "out.json")]) == 2
+    assert evaluate([*VAIL_PRETRAINED, "--episodes", "1", "--json", str(blocker / "out.json")]) == 2
     assert time.perf_counter() - start < 5  # refused before building the agent or running an episode
     existing = tmp_path / "eval.json"
     existing.write_text("{}")
-    assert evaluate([str(VAIL_CHECKPOINT), "--episodes", "1", "--json", str(existing)]) == 2
+    assert evaluate([*VAIL_PRETRAINED, "--episodes", "1", "--json", str(existing)]) == 2
     assert existing.read_text() == "{}"  # never overwritten unasked
 
 
@@ -146,7 +147,8 @@ def test_plot_results_never_replaces_files_it_did_not_write(tmp_path):
     from experiments.plot_results import main as plot
 
     run = tmp_path / "run"
-    shutil.copytree(VAIL_CHECKPOINT.parent, run)
+    shutil.copytree(VAIL_RUN, run)
+    assert not (run / "checkpoint.pt").exists()  # plotted from its config.yaml
     assert plot([str(run)]) == 0  # beside the run by default
     assert (run / "UnitreeH1.walk_vail_from15.3M.png").exists()
     results = tmp_path / "results"
@@ -157,6 +159,12 @@ def test_plot_results_never_replaces_files_it_did_not_write(tmp_path):
     assert committed.read_text() == "step\n1\n"
     assert plot([str(run), "--out", str(results), "--force"]) == 0
     assert committed.read_text() != "step\n1\n"
+    assert plot([str(results)]) == 2  # neither a checkpoint nor a config.yaml
+    from baselines.training import run_config_from_directory
+
+    with pytest.raises(FileNotFoundError, match="neither checkpoint.pt nor config.yaml: not a run directory"):
+        run_config_from_directory(results)
+    assert run_config_from_directory(run).init_from["steps"] == 15_300_000
 
 
 # ---- fuzz -----------------------------------------------------------------------------------------------------
