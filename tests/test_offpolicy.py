@@ -3,6 +3,7 @@ passes (critics, actor) and the whole update against autograd, and exact resumpt
 replay buffer saved beside it."""
 
 import copy
+import json
 
 import numpy as np
 import pytest
@@ -407,3 +408,19 @@ def test_trainer_resumes_an_offpolicy_run_exactly_and_says_when_it_cannot(tmp_pa
     for name, tensor in a["critic"].items():
         assert torch.equal(tensor, b["critic"][name]), name
     assert a["updates"] == b["updates"] > 0 and a["rng"] == b["rng"]
+
+
+def test_expert_action_labels_are_scored_against_the_true_actions(tmp_path):
+    """mj_inverse explains most of the perfect data's action variance; a task without true actions is refused."""
+    from experiments.compare_expert_actions import label_scores, main
+
+    true = np.random.default_rng(0).normal(size=(100, 3))
+    assert label_scores(true, true) == {"rmse": 0.0, "r2": 1.0, "rmse_per_dim_max": 0.0}
+    assert label_scores(np.broadcast_to(true.mean(0), true.shape), true)["r2"] == pytest.approx(0.0, abs=1e-12)
+    assert main(["--task", "UnitreeH1.walk", "--transitions", "10", "--updates", "1"]) == 2
+    out = tmp_path / "labels.json"
+    assert main(["--transitions", "300", "--updates", "20", "--json", str(out)]) == 0
+    res = json.loads(out.read_text())
+    assert res["mj_inverse"]["r2"] > 0.5 and res["mj_inverse"]["rmse"] < 0.3
+    assert {"learned_on_random", "learned_on_demonstrator+N(0,0.1)"} <= set(res)
+    assert main(["--transitions", "300", "--updates", "20", "--json", str(out)]) == 2  # never overwritten
