@@ -284,10 +284,11 @@ def test_offpolicy_family_config():
     assert run.train.n_steps_per_fit == 1 and run.train.expert_actions == "auto"
     assert run.agent.reg_mult == 0.5 and run.agent.batch_size == 256 and run.agent.actor_lr == 3e-5
     assert load_run_config("HumanoidMuscle.walk", "sqil").agent.from_observations
-    # the references' choices: LS-IQ's humanoid temperature 0.1, their single critic
+    # LS-IQ's humanoid temperature 0.1 and single critic (bounded targets); twin critics where Q is unbounded
     assert run.agent.alpha == 0.1 and run.agent.n_critics == 1
     iq = load_run_config("UnitreeH1.walk", "iq_learn").agent
-    assert iq.n_critics == 1 and iq.alpha == 0.1 and iq.loss_mode == "v0"
+    assert iq.n_critics == 2 and iq.alpha == 0.1 and iq.loss_mode == "v0"
+    assert load_run_config("UnitreeH1.walk", "sqil").agent.n_critics == 2
 
 
 def test_one_critic_has_one_set_of_weights(env):
