@@ -145,6 +145,46 @@ def render_csv(cells: list[Cell]) -> str:
     return buf.getvalue()
 
 
+FAMILY_NAMES = {"adversarial": "on-policy (GAIL, VAIL, GAIfO)", "offpolicy": "off-policy (IQ-Learn, LS-IQ, SQIL)",
+                "offline": "offline (BC)"}
+
+
+def compute_cost(cells: list[Cell]) -> dict[str, dict[str, Any]]:
+    """Per algorithm family, what training the rows' seeds cost: runs, steps and logged hours (learning time, one
+    CPU core and one torch thread each); ``unlogged`` counts the runs whose log gives no hours."""
+    from baselines import ALGORITHMS as CLASSES
+
+    cost: dict[str, dict[str, Any]] = {}
+    for c in cells:
+        family = CLASSES[c.algorithm].family
+        for b in c.budgets:
+            f = cost.setdefault(family, {"runs": 0, "steps": 0, "hours": 0.0, "unlogged": 0})
+            f["runs"] += 1
+            f["steps"] += int(b.steps)
+            if b.hours is None or not math.isfinite(b.hours):
+                f["unlogged"] += 1
+            else:
+                f["hours"] += float(b.hours)
+    return {k: cost[k] for k in FAMILY_NAMES if k in cost}
+
+
+def compute_lines(cells: list[Cell]) -> list[str]:
+    """The table's "Compute" section: its cost per algorithm family and in all."""
+    cost = compute_cost(cells)
+    lines = ["## Compute", "",
+             "What the runs behind the rows above (evaluated or not) cost to train, from their logs: learning time on "
+             "one CPU core with one torch thread each, without the per-epoch evaluations; the machines were shared, "
+             "so hours are upper bounds for an idle core.", "",
+             "| family | runs | steps | hours | runs without logged hours |", "|---|---|---|---|---|"]
+    for family, f in cost.items():
+        unit = "grad" if family == "offline" else "env"
+        lines.append(f"| {FAMILY_NAMES[family]} | {f['runs']} | {format_steps(f['steps'])} {unit} | {f['hours']:.1f} | "
+                     f"{f['unlogged']} |")
+    total = sum(f["hours"] for f in cost.values())
+    lines += ["", f"In all: {sum(f['runs'] for f in cost.values())} runs, {total:.1f} core-hours of learning.", ""]
+    return lines
+
+
 def render_markdown(cells: list[Cell], agg: dict[str, dict[str, Any]], inputs: Inputs) -> str:
     """The table, the aggregate and where every figure came from."""
     filled = sum(c.status == OK for c in cells)
@@ -203,7 +243,7 @@ def render_markdown(cells: list[Cell], agg: dict[str, dict[str, Any]], inputs: I
               "Performance profile: the fraction of runs (each task weighted equally) whose score exceeds tau, with "
               "its 95% stratified-bootstrap band; rliable's figure, drawn with numpy "
               "(`loco_mujoco/evaluation/aggregate.py`) because rliable 1.2.0 pins `arch<8`.", "",
-              "## Sources", ""]
+              *compute_lines(cells), "## Sources", ""]
     for c in cells:
         if c.results:
             logs = ", ".join(b.log or "no training log" for b in c.budgets)

@@ -115,6 +115,14 @@ def test_perfect_data_superseded_seeds_and_runs_without_evaluation(dirs):
     sqil = rows["UnitreeH1.walk", "sqil"]
     assert sqil.status == NOT_EVALUATED and sqil.budgets[0].steps == 40_000
     assert sqil.budgets[0].hours == pytest.approx((20_000 / 100 + 20_000 / 50) / 3600)
+    from experiments.results_table import compute_cost, compute_lines
+
+    cost = compute_cost(list(rows.values()))
+    assert list(cost) == ["adversarial", "offpolicy", "offline"]  # the superseded VAIL evaluation is not counted
+    assert cost["adversarial"] == {"runs": 1, "steps": 5_000_000, "hours": 0.0, "unlogged": 1}
+    assert cost["offpolicy"] == {"runs": 1, "steps": 40_000, "hours": pytest.approx(600 / 3600), "unlogged": 0}
+    assert cost["offline"]["steps"] == 20_000 and cost["offline"]["unlogged"] == 1
+    assert "In all: 3 runs, 0.2 core-hours of learning." in compute_lines(list(rows.values()))
 
 
 def test_training_hours_need_a_complete_log():
@@ -153,7 +161,8 @@ def test_regeneration_is_byte_identical_and_never_overwrites_unasked(dirs, tmp_p
     assert main([*args, "--out", str(out)]) == 0
     first = {name: (out / name).read_bytes() for name in OUTPUTS}
     md = first["table.md"].decode()
-    assert md.count("\n| ") == 1 + 42 + 1 + 1  # header, 42 rows, aggregate header, one aggregate row
+    assert md.count("\n| ") == 1 + 42 + 1 + 1 + 1 + 1  # header, 42 rows, aggregate header and row, compute
+    assert "| on-policy (GAIL, VAIL, GAIfO) | 3 | 3.0M env | 0.0 | 3 |" in md  # three GAIL runs, no logs
     assert "| Talos.walk | GAIL | **" in md and "| GAIL | 2 | 3 |" in md
     # refused without --force, nothing touched
     (out / "table.csv").write_text("mine")
