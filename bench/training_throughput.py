@@ -39,7 +39,9 @@ sqil / sac is the like-for-like ratio; IQ-Learn and LS-IQ also regress the value
 (one more critic pass with gradients). Per run: a fresh agent (seed 0), ``--off-warmup`` steps filling the
 replay memory without updates (timed: collection alone), then ``--off-steps`` steps with one update each
 (timed: env steps/s = updates/s, and the process's CPU time per step, which other processes on shared cores do
-not inflate). Runs alternate, best of ``--repeats``.
+not inflate). Runs alternate, best of ``--repeats``. Each variant's floating-point operations per step (matrix
+products, counted once by torch's ``FlopCounterMode``) and the core's matrix-product ceiling say how far from the
+hardware each loop is, and how large a speed-up over SAC its FLOPs allow at most.
 
     .venv/bin/python bench/training_throughput.py [--section all|onpolicy|offpolicy] [--steps 20000]
         [--warmup 3000] [--repeats 3] [--variants fast:2 fast:1 mushroom:2 fast:2:n4 fast:2:n8:t1] [--profile]
@@ -299,6 +301,32 @@ def timed_offpolicy_run(core: Core, steps: int) -> tuple[float, float]:
     return rate, cpu_rate
 
 
+def flops_per_step(core: Core, steps: int = 5) -> float:
+    """Floating-point operations of one env step with its update, counted by torch's ``FlopCounterMode`` (matrix
+    products forward and backward, ours written out and Mushroom's through autograd alike; elementwise work is not
+    counted). The same for every run of a variant: a property of the computation, not of the machine."""
+    from torch.utils.flop_counter import FlopCounterMode
+
+    with FlopCounterMode(display=False) as counter:
+        core.learn(n_steps=steps, n_steps_per_fit=1, quiet=True)
+    return counter.get_total_flops() / steps
+
+
+def gemm_ceiling(repeats: int = 5) -> float:
+    """FLOP/s of one ``[1024, 256] @ [256, 256]`` product per second of CPU time (the updates' largest shape), best
+    of ``repeats`` runs on the current torch threads: what the updates could reach if they were nothing but it."""
+    a, b, out = torch.randn(1024, 256), torch.randn(256, 256), torch.empty(1024, 256)
+    for _ in range(20):
+        torch.mm(a, b, out=out)
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = time.process_time()
+        for _ in range(200):
+            torch.mm(a, b, out=out)
+        best = min(best, time.process_time() - t0)
+    return 2 * 1024 * 256 * 256 * 200 / best
+
+
 def offpolicy_section(args: argparse.Namespace) -> None:
     torch.set_num_threads(args.off_threads)
     env = lm.LocoEnv.make(OFF_ENV)
@@ -308,6 +336,7 @@ def offpolicy_section(args: argparse.Namespace) -> None:
     loop: dict[str, list[float]] = {v: [] for v in args.off_variants}
     cpu: dict[str, list[float]] = {v: [] for v in args.off_variants}
     collect: dict[str, list[float]] = {v: [] for v in args.off_variants}
+    flops: dict[str, float] = {}
     for _ in range(args.repeats):
         for variant in args.off_variants:
             core, collection_rate = build_offpolicy(env, variant, args.off_warmup)
@@ -315,18 +344,26 @@ def offpolicy_section(args: argparse.Namespace) -> None:
             rate, cpu_rate = timed_offpolicy_run(core, args.off_steps)
             loop[variant].append(rate)
             cpu[variant].append(cpu_rate)
+            if variant not in flops:
+                flops[variant] = flops_per_step(core)
+    ceiling = gemm_ceiling()
     print(f"\n  {'variant':30s} {'steps/s = updates/s, each run':30s} {'best':>7s} {'ms/step':>8s} "
-          f"{'CPU ms/step':>12s} {'collection only, steps/s':>25s}")
+          f"{'CPU ms/step':>12s} {'collection only, steps/s':>25s} {'GFLOP/step':>11s} {'GFLOP/s (CPU)':>14s}")
     for variant in args.off_variants:
         best = max(loop[variant])
         print(f"  {OFF_LABELS[variant]:30s} {', '.join(f'{r:.1f}' for r in loop[variant]):30s} {best:7.1f} "
-              f"{1e3 / best:8.2f} {1e3 / max(cpu[variant]):12.2f} {max(collect[variant]):25,.0f}")
+              f"{1e3 / best:8.2f} {1e3 / max(cpu[variant]):12.2f} {max(collect[variant]):25,.0f} "
+              f"{flops[variant] / 1e9:11.3f} {flops[variant] * max(cpu[variant]) / 1e9:14.1f}")
+    print(f"  matrix-product ceiling of this core ([1024, 256] @ [256, 256], per CPU second): {ceiling / 1e9:.1f} "
+          "GFLOP/s")
     if "sac" in loop:
         sac, sac_cpu = max(loop["sac"]), max(cpu["sac"])
         for variant in (v for v in args.off_variants if v != "sac"):
             ratio, cpu_ratio = max(loop[variant]) / sac, max(cpu[variant]) / sac_cpu
+            bound = ceiling / flops[variant] / sac_cpu  # ours computing at the ceiling, against SAC per CPU second
             print(f"  speed-up {OFF_LABELS[variant]} / Mushroom SAC: {ratio:.2f}x (per CPU second {cpu_ratio:.2f}x; "
-                  f"goal >= 2x: {'met' if ratio >= 2 else 'NOT met'})")
+                  f"goal >= 2x: {'met' if ratio >= 2 else 'NOT met'}; at most {bound:.2f}x with its "
+                  f"{flops[variant] / flops['sac']:.2f}x of SAC's FLOPs at the matrix-product ceiling)")
 
 
 def onpolicy_section(args: argparse.Namespace) -> None:
