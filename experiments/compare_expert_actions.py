@@ -30,6 +30,7 @@ from tqdm import tqdm
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # run from a checkout without installing
 
 from baselines.common.inverse_model import InverseDynamicsModel  # noqa: E402
+from baselines.common.standardizer import RunningStandardizer  # noqa: E402
 
 
 def label_scores(labels: np.ndarray, true: np.ndarray) -> dict[str, float]:
@@ -57,13 +58,12 @@ def rollout_transitions(env: Any, act: Any, n: int, rng: np.random.Generator, de
     return s, a, s2
 
 
-def fit_inverse_model(s: np.ndarray, a: np.ndarray, s2: np.ndarray, mean: np.ndarray, std: np.ndarray,
+def fit_inverse_model(s: np.ndarray, a: np.ndarray, s2: np.ndarray, standardizer: RunningStandardizer,
                       updates: int, batch: int, seed: int) -> InverseDynamicsModel:
     """The online model's network and optimiser, fitted for ``updates`` minibatches of ``batch`` transitions."""
     gen = torch.Generator().manual_seed(seed)
     model = InverseDynamicsModel(s.shape[1], a.shape[1], generator=gen)
-    x = torch.from_numpy(np.clip((s - mean) / std, -10, 10).astype(np.float32))
-    x2 = torch.from_numpy(np.clip((s2 - mean) / std, -10, 10).astype(np.float32))
+    x, x2 = torch.from_numpy(standardizer.normalize(s)), torch.from_numpy(standardizer.normalize(s2))
     act = torch.from_numpy(a.astype(np.float32))
     for _ in tqdm(range(updates), desc="fitting f(s, s')", unit="update", leave=False):
         idx = torch.randint(len(x), (batch,), generator=gen)
@@ -83,18 +83,19 @@ def compare(task: str, n_transitions: int, updates: int, batch: int, noise: floa
     env = LocoEnv.make(task, seed=seed)
     data = env.create_dataset()
     true = data["actions"].astype(np.float64)
-    mean, std = data["states"].mean(axis=0), data["states"].std(axis=0) + 1e-6
+    standardizer = RunningStandardizer(data["states"].shape[1])  # the agent's: fitted once on the expert's states
+    standardizer.update(data["states"])
     results: dict[str, Any] = {"task": task, "transitions": int(len(true)), "seed": seed,
                                "mj_inverse": label_scores(inverse_dynamics_actions(env), true)}
     export = PolicyExport.load(pretrained_root() / recipe.exports[0])
     behaviours = {"random": lambda obs, rng: rng.uniform(-1.0, 1.0, true.shape[1]),
                   f"demonstrator+N(0,{noise:g})": lambda obs, rng: export.mean_action(obs[None])[0]
                   + noise * rng.standard_normal(true.shape[1])}
-    x = torch.from_numpy(np.clip((data["states"] - mean) / std, -10, 10).astype(np.float32))
-    x2 = torch.from_numpy(np.clip((data["next_states"] - mean) / std, -10, 10).astype(np.float32))
+    x = torch.from_numpy(standardizer.normalize(data["states"]))
+    x2 = torch.from_numpy(standardizer.normalize(data["next_states"]))
     for name, act in behaviours.items():
         s, a, s2 = rollout_transitions(env, act, n_transitions, np.random.default_rng(seed), name)
-        model = fit_inverse_model(s, a, s2, mean, std, updates, batch, seed)
+        model = fit_inverse_model(s, a, s2, standardizer, updates, batch, seed)
         results[f"learned_on_{name}"] = {**label_scores(model.predict(x, x2).numpy().astype(np.float64), true),
                                          "train_transitions": n_transitions, "updates": updates, "batch": batch}
     env.stop()

@@ -66,8 +66,8 @@ class OffPolicyConfig(AgentConfig):
 
     actor_hidden: tuple[int, ...] = (256, 256)
     critic_hidden: tuple[int, ...] = (256, 256)
-    n_critics: int = 2  # SAC's min over 2 critics against overestimation; configs/defaults.yaml sets the IQ
-    # references' 1 (1.5-1.7x faster updates)
+    n_critics: int = 2  # SAC's min over 2 critics against overestimation; configs/defaults.yaml gives LS-IQ 1
+    # (its clipped targets bound Q; 1.5-1.7x faster updates)
     activation: str = "relu"
     actor_lr: float = 3e-5
     critic_lr: float = 3e-4
