@@ -40,7 +40,8 @@ sqil / sac is the like-for-like ratio; IQ-Learn and LS-IQ also regress the value
 replay memory without updates (timed: collection alone), then ``--off-steps`` steps with one update each
 (timed: env steps/s = updates/s, and the process's CPU time per step, which other processes on shared cores do
 not inflate). Runs alternate, best of ``--repeats``. Each variant's floating-point operations per step (matrix
-products, counted once by torch's ``FlopCounterMode``) and the core's matrix-product ceiling say how far from the
+products, counted once by torch's ``FlopCounterMode``) and the core's matrix-product ceilings (``torch.mm``, which
+Mushroom-RL's networks use, and oneDNN, which our loop uses: :mod:`baselines.common.gemm`) say how far from the
 hardware each loop is, and how large a speed-up over SAC its FLOPs allow at most.
 
     .venv/bin/python bench/training_throughput.py [--section all|onpolicy|offpolicy] [--steps 20000]
@@ -67,6 +68,7 @@ from mushroom_rl.core import Core  # noqa: E402
 from torch import nn  # noqa: E402
 
 from baselines import make_agent  # noqa: E402
+from baselines.common import gemm  # noqa: E402
 from baselines.common.batched import BatchedCollector, default_env_threads, env_seeds  # noqa: E402
 from baselines.common.fast_trpo import default_num_threads  # noqa: E402
 from baselines.common.networks import MushroomMLP, build_mlp  # noqa: E402
@@ -259,7 +261,7 @@ class SACCritic(nn.Module):
     def __init__(self, input_shape: tuple[int, ...], output_shape: tuple[int, ...], seed: int = 0, **_: object):
         super().__init__()
         self.net = build_mlp(input_shape[0], output_shape[0], HIDDEN, "relu", output_std=1e-3,
-                             generator=torch.Generator().manual_seed(seed))
+                             generator=torch.Generator().manual_seed(seed), onednn=False)  # SAC as written
 
     def forward(self, state: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
         return torch.squeeze(self.net(torch.cat([state.float(), action.float()], dim=1)), 1)
@@ -269,7 +271,8 @@ def build_offpolicy(env: lm.LocoEnv, variant: str, warmup: int) -> tuple[Core, f
     """A fresh agent whose updates start after ``warmup`` steps, and the collection rate of that warm-up."""
     if variant == "sac":
         obs, act = env.info.observation_space.shape, env.info.action_space.shape
-        actor = dict(network=MushroomMLP, input_shape=obs, output_shape=act, hidden=HIDDEN, output_std=1e-3)
+        actor = dict(network=MushroomMLP, input_shape=obs, output_shape=act, hidden=HIDDEN, output_std=1e-3,
+                     onednn=False)
         critic = dict(network=SACCritic, input_shape=(obs[0] + act[0],), output_shape=(1,), loss=F.mse_loss,
                       optimizer={"class": torch.optim.Adam, "params": {"lr": CRITIC_LR}})
         agent = SAC(env.info, actor, dict(actor), {"class": torch.optim.Adam, "params": {"lr": ACTOR_LR}}, critic,
@@ -307,23 +310,27 @@ def flops_per_step(core: Core, steps: int = 5) -> float:
     counted). The same for every run of a variant: a property of the computation, not of the machine."""
     from torch.utils.flop_counter import FlopCounterMode
 
-    with FlopCounterMode(display=False) as counter:
+    # The counter sees aten's products only, so ours run on torch's path while it counts (same FLOPs as oneDNN's).
+    with FlopCounterMode(display=False) as counter, gemm.backend("torch"):
         core.learn(n_steps=steps, n_steps_per_fit=1, quiet=True)
     return counter.get_total_flops() / steps
 
 
-def gemm_ceiling(repeats: int = 5) -> float:
+def gemm_ceiling(backend: str = "torch", repeats: int = 5) -> float:
     """FLOP/s of one ``[1024, 256] @ [256, 256]`` product per second of CPU time (the updates' largest shape), best
-    of ``repeats`` runs on the current torch threads: what the updates could reach if they were nothing but it."""
-    a, b, out = torch.randn(1024, 256), torch.randn(256, 256), torch.empty(1024, 256)
-    for _ in range(20):
-        torch.mm(a, b, out=out)
-    best = float("inf")
-    for _ in range(repeats):
-        t0 = time.process_time()
-        for _ in range(200):
-            torch.mm(a, b, out=out)
-        best = min(best, time.process_time() - t0)
+    of ``repeats`` runs on the current torch threads, with ``torch.mm`` (``backend="torch"``: MKL, what Mushroom-RL's
+    networks use) or oneDNN (``"onednn"``: what our loop uses, :mod:`baselines.common.gemm`): what the updates could
+    reach if they were nothing but it."""
+    a, b = torch.randn(1024, 256), torch.randn(256, 256)
+    with gemm.backend(backend):
+        for _ in range(20):
+            gemm.mm(a, b)
+        best = float("inf")
+        for _ in range(repeats):
+            t0 = time.process_time()
+            for _ in range(200):
+                gemm.mm(a, b)
+            best = min(best, time.process_time() - t0)
     return 2 * 1024 * 256 * 256 * 200 / best
 
 
@@ -346,7 +353,7 @@ def offpolicy_section(args: argparse.Namespace) -> None:
             cpu[variant].append(cpu_rate)
             if variant not in flops:
                 flops[variant] = flops_per_step(core)
-    ceiling = gemm_ceiling()
+    ceiling, onednn_ceiling = gemm_ceiling("torch"), gemm_ceiling("onednn")
     print(f"\n  {'variant':30s} {'steps/s = updates/s, each run':30s} {'best':>7s} {'ms/step':>8s} "
           f"{'CPU ms/step':>12s} {'collection only, steps/s':>25s} {'GFLOP/step':>11s} {'GFLOP/s (CPU)':>14s}")
     for variant in args.off_variants:
@@ -354,16 +361,16 @@ def offpolicy_section(args: argparse.Namespace) -> None:
         print(f"  {OFF_LABELS[variant]:30s} {', '.join(f'{r:.1f}' for r in loop[variant]):30s} {best:7.1f} "
               f"{1e3 / best:8.2f} {1e3 / max(cpu[variant]):12.2f} {max(collect[variant]):25,.0f} "
               f"{flops[variant] / 1e9:11.3f} {flops[variant] * max(cpu[variant]) / 1e9:14.1f}")
-    print(f"  matrix-product ceiling of this core ([1024, 256] @ [256, 256], per CPU second): {ceiling / 1e9:.1f} "
-          "GFLOP/s")
+    print(f"  matrix-product ceiling of this core ([1024, 256] @ [256, 256], per CPU second): torch.mm (Mushroom's) "
+          f"{ceiling / 1e9:.1f} GFLOP/s, oneDNN (ours) {onednn_ceiling / 1e9:.1f} GFLOP/s")
     if "sac" in loop:
         sac, sac_cpu = max(loop["sac"]), max(cpu["sac"])
         for variant in (v for v in args.off_variants if v != "sac"):
             ratio, cpu_ratio = max(loop[variant]) / sac, max(cpu[variant]) / sac_cpu
-            bound = ceiling / flops[variant] / sac_cpu  # ours computing at the ceiling, against SAC per CPU second
+            bound = onednn_ceiling / flops[variant] / sac_cpu  # ours at oneDNN's ceiling, against SAC per CPU second
             print(f"  speed-up {OFF_LABELS[variant]} / Mushroom SAC: {ratio:.2f}x (per CPU second {cpu_ratio:.2f}x; "
                   f"goal >= 2x: {'met' if ratio >= 2 else 'NOT met'}; at most {bound:.2f}x with its "
-                  f"{flops[variant] / flops['sac']:.2f}x of SAC's FLOPs at the matrix-product ceiling)")
+                  f"{flops[variant] / flops['sac']:.2f}x of SAC's FLOPs at oneDNN's ceiling)")
 
 
 def onpolicy_section(args: argparse.Namespace) -> None:

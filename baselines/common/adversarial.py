@@ -135,6 +135,7 @@ class AdversarialImitation(Agent):
         c = self.config
         critic_params = dict(network=MushroomMLP, input_shape=(obs_dim,), output_shape=(1,), hidden=c.critic_hidden,
                              activation="relu", output_std=1e-3, standardizer=self.obs_standardizer, seed=critic_seed,
+                             onednn=c.learner == "fast",  # Mushroom's TRPO as written: nn.Linear products
                              optimizer={"class": torch.optim.Adam, "params": {"lr": c.critic_lr, "fused": True}},
                              loss=F.mse_loss,
                              batch_size=c.critic_batch_size)
@@ -152,7 +153,7 @@ class AdversarialImitation(Agent):
         torch.set_num_threads(n_threads)
         policy = GaussianTorchPolicy(MushroomMLP, (obs_dim,), (act_dim,), std_0=c.std_0, hidden=c.policy_hidden,
                                      activation=c.policy_activation, output_std=1e-3,
-                                     standardizer=self.obs_standardizer, seed=policy_seed)
+                                     standardizer=self.obs_standardizer, seed=policy_seed, onednn=False)
         return TRPO(mdp_info, policy, critic_params, **trpo_args)
 
     # ---- what an algorithm defines ----------------------------------------------------------------------

@@ -64,6 +64,8 @@ from mushroom_rl.core import MDPInfo
 from mushroom_rl.policy import TorchPolicy
 from torch import nn
 
+from baselines.common import gemm
+
 FisherOperator = Callable[[torch.Tensor], torch.Tensor]
 
 
@@ -315,7 +317,7 @@ class FastTRPO(TRPO):
                 h = policy.standardizer.normalize_torch(h)
             for linear, activation in zip(linears, activations, strict=True):
                 inputs.append(h)
-                pre = torch.addmm(linear.bias, h, linear.weight.t())
+                pre = gemm.linear(h, linear.weight, linear.bias)
                 h = activation(pre)
                 if isinstance(activation, nn.ReLU):
                     slopes.append((pre > 0).to(pre.dtype))
@@ -339,7 +341,7 @@ class FastTRPO(TRPO):
             with torch.no_grad():
                 pieces = torch.split(v, sizes)  # weight_0, bias_0, weight_1, bias_1, ..., log_std
                 # J v: the change of the mean action along v.
-                z = [torch.addmm(pieces[2 * i + 1], inputs[i], pieces[2 * i].view_as(linears[i].weight).t())
+                z = [gemm.linear(inputs[i], pieces[2 * i].view_as(linears[i].weight), pieces[2 * i + 1])
                      for i in range(n_layers)]
                 d_mean = z[-1] if out_slope is None else z[-1] * out_slope
                 for i in range(n_layers - 1):
@@ -352,7 +354,7 @@ class FastTRPO(TRPO):
                         delta = torch.bmm(u[:, None, :], jacobians[i])[:, 0]
                     else:
                         delta = u if out_slope is None else u * out_slope
-                    out += [torch.mm(delta.t(), inputs[i]).reshape(-1), delta.sum(dim=0)]
+                    out += [gemm.mm(delta.t(), inputs[i]).reshape(-1), delta.sum(dim=0)]
                 out.append(2.0 * pieces[-1])
                 return torch.cat(out)
 

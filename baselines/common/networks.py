@@ -12,6 +12,8 @@ from typing import Any
 import torch
 from torch import nn
 
+from baselines.common import gemm
+
 ACTIVATIONS: dict[str, type[nn.Module]] = {"relu": nn.ReLU, "tanh": nn.Tanh, "identity": nn.Identity}
 
 
@@ -30,12 +32,14 @@ def normc_(weight: torch.Tensor, std: float, generator: torch.Generator | None =
 
 def build_mlp(in_dim: int, out_dim: int, hidden: Sequence[int] = (512, 256), activation: str = "relu",
               output_activation: str = "identity", hidden_std: float = 1.0, output_std: float = 1.0,
-              generator: torch.Generator | None = None) -> nn.Sequential:
+              generator: torch.Generator | None = None, onednn: bool = True) -> nn.Sequential:
     """``Linear -> activation`` for each hidden size, then ``Linear -> output_activation``.
 
     Weights use normc (``hidden_std`` / ``output_std``), biases start at zero. The result is a plain
     ``nn.Sequential`` of ``Linear`` and activation modules, which lets :mod:`baselines.common.fast_trpo`
-    differentiate it by hand.
+    differentiate it by hand. The ``Linear`` layers are :class:`baselines.common.gemm.Linear` (products on
+    oneDNN, same parameters and state dict), or ``torch.nn.Linear`` with ``onednn=False`` (the benchmarks'
+    unmodified Mushroom-RL learners).
     """
     for name in (activation, output_activation):
         if name not in ACTIVATIONS:
@@ -43,7 +47,7 @@ def build_mlp(in_dim: int, out_dim: int, hidden: Sequence[int] = (512, 256), act
     sizes = [in_dim, *hidden, out_dim]
     layers: list[nn.Module] = []
     for i in range(len(sizes) - 1):
-        linear = nn.Linear(sizes[i], sizes[i + 1])
+        linear = (gemm.Linear if onednn else nn.Linear)(sizes[i], sizes[i + 1])
         last = i == len(sizes) - 2
         normc_(linear.weight, output_std if last else hidden_std, generator)
         nn.init.zeros_(linear.bias)
@@ -61,12 +65,12 @@ class MushroomMLP(nn.Module):
 
     def __init__(self, input_shape: tuple[int, ...], output_shape: tuple[int, ...], hidden: Sequence[int] = (512, 256),
                  activation: str = "relu", output_std: float = 1e-3, standardizer: Any = None, seed: int = 0,
-                 **_mushroom_kwargs: Any):
+                 onednn: bool = True, **_mushroom_kwargs: Any):
         super().__init__()
         generator = torch.Generator().manual_seed(seed)
         self.standardizer = standardizer
         self.net = build_mlp(input_shape[0], output_shape[0], hidden, activation, output_std=output_std,
-                             generator=generator)
+                             generator=generator, onednn=onednn)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         x = x.float()

@@ -266,18 +266,16 @@ class OffPolicyImitation(Agent):
         noise = torch.randn((2, n, policy.act_dim), generator=self._generator)
         alpha = self.log_alpha.detach().exp()
         with torch.no_grad():
-            # One actor pass over [x; x'] and one pass of the online critics over [x, a; x, a~] (a~ ~ pi(.|x)); the
-            # inputs end in a column of ones, so that the first layers' biases enter their products.
+            # One actor pass over [x; x'] and one pass of the online critics over [x, a; x, a~] (a~ ~ pi(.|x)).
             out, actor_inputs = policy.forward_kept(states)
             sampled, log_probs = policy.squash_t(out, noise.view(2 * n, -1))
-            x, x_next = states[:n, :-1], states[n:, :-1]
+            x, x_next = states[:n], states[n:]
             new_action, log_prob, next_log_prob = sampled[:n], log_probs[:n], log_probs[n:]
-            next_q, _ = self.target_critic(TwinCritic.with_ones(x_next, sampled[n:]))
+            next_q, _ = self.target_critic(torch.cat([x_next, sampled[n:]], 1))
             next_v = next_q.amin(0) - alpha * next_log_prob
             b = self.config.batch_size
             skipped = 0 if self.uses_agent_values else b  # leading rows of [x, a] left out of the critic pass
-            critic_input = torch.cat([TwinCritic.with_ones(x[skipped:], action[skipped:]),
-                                      TwinCritic.with_ones(x, new_action)])
+            critic_input = torch.cat([torch.cat([x[skipped:], action[skipped:]], 1), torch.cat([x, new_action], 1)])
             values, hidden = critic(critic_input, keep=True)
             if skipped:  # placeholders the loss never reads (checked below)
                 values = torch.cat([values.new_zeros(values.shape[0], skipped), values], 1)
@@ -322,23 +320,21 @@ class OffPolicyImitation(Agent):
         """Standardized ``(x, a, x', absorbing)`` of ``batch_size`` agent then ``batch_size`` expert transitions."""
         states, action, absorbing = self._sample_rows()
         n = action.shape[0]
-        return states[:n, :-1], action, states[n:, :-1], absorbing
+        return states[:n], action, states[n:], absorbing
 
     def _sample_rows(self) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """:meth:`_sample` as ``(states, a, absorbing)``: ``states`` holds ``x`` in rows ``[:2B]`` and ``x'`` in rows
-        ``[2B:]``, followed by a column of ones (the networks' first layers take their bias from it). Gathered by
-        numpy into one array, standardized in place."""
+        ``[2B:]``. Gathered by numpy into one array, standardized in place."""
         b, buf, obs_dim = self.config.batch_size, self.buffer, self.buffer.obs_dim
         agent_idx = self._rng.integers(buf.size, size=b)
         expert_idx = self._rng.integers(len(self.expert), size=b)
-        states = np.empty((4 * b, obs_dim + 1), np.float32)
+        states = np.empty((4 * b, obs_dim), np.float32)
         for rows, source, idx in ((slice(0, b), buf.states, agent_idx),
                                   (slice(b, 2 * b), self._expert_states_np, expert_idx),
                                   (slice(2 * b, 3 * b), buf.next_states, agent_idx),
                                   (slice(3 * b, 4 * b), self._expert_next_states_np, expert_idx)):
-            np.take(source, idx, axis=0, out=states[rows, :obs_dim])
-        states[:, :obs_dim] = self.obs_standardizer.normalize(states[:, :obs_dim])
-        states[:, obs_dim] = 1.0
+            np.take(source, idx, axis=0, out=states[rows])
+        states = self.obs_standardizer.normalize(states)
         states = torch.from_numpy(states)
         action = np.empty((2 * b, buf.act_dim), np.float32)
         np.take(buf.actions, agent_idx, axis=0, out=action[:b])
@@ -347,7 +343,7 @@ class OffPolicyImitation(Agent):
         np.take(self._expert_absorbing_np, expert_idx, out=absorbing[b:])
         action = torch.from_numpy(action)
         if self.inverse_model is not None:  # fit f(s, s') on the agent's transitions, then label the expert's
-            x, x_next = states[:2 * b, :obs_dim], states[2 * b:, :obs_dim]
+            x, x_next = states[:2 * b], states[2 * b:]
             loss = self.inverse_model.fit(x[:b], x_next[:b], action[:b])
             action[b:] = self.inverse_model.predict(x[b:], x_next[b:])
             self._inverse_model_stats = {"inverse_model_loss": loss}
@@ -380,7 +376,7 @@ class OffPolicyImitation(Agent):
         idx = (buf.n_added - 1 - np.arange(min(self.config.batch_size, buf.size))) % buf.capacity
         x = torch.from_numpy(self.obs_standardizer.normalize(buf.states[idx]).astype(np.float32))
         with torch.no_grad():
-            values, _ = self.critic(TwinCritic.with_ones(x, torch.from_numpy(buf.actions[idx])))
+            values, _ = self.critic(torch.cat([x, torch.from_numpy(buf.actions[idx])], 1))
         return float(values.mean())
 
     @property

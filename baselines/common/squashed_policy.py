@@ -30,6 +30,7 @@ import torch.nn.functional as F
 from mushroom_rl.policy import Policy
 from torch import nn
 
+from baselines.common import gemm
 from baselines.common.networks import build_mlp
 from baselines.common.policy import _NUMPY_ACTIVATIONS, EvaluationModeMixin
 from baselines.common.standardizer import RunningStandardizer
@@ -98,18 +99,16 @@ class TanhGaussianPolicy(EvaluationModeMixin, Policy):
     # ---- the learner's actor step, differentiated by hand (no autograd graph) ------------------------------
     def forward_kept(self, x: torch.Tensor) -> tuple[torch.Tensor, list[torch.Tensor]]:
         """``(out, inputs)``: the MLP's output for ``x`` and the input of each of its linear layers (``x`` and the
-        hidden activations), for :meth:`backward_kept`. ``x`` may end in a column of ones (``[x, 1]``): the first
-        layer's bias then enters its product. No graph is built."""
+        hidden activations), for :meth:`backward_kept`. No graph is built; products on
+        :func:`~baselines.common.gemm.linear` (bias and ReLU fused)."""
         inputs = []
         h = x
         with torch.no_grad():
-            for i, (linear, activation) in enumerate(self._layers):
+            for linear, activation in self._layers:
                 inputs.append(h)
-                if i == 0 and x.shape[1] == self.obs_dim + 1:
-                    h = torch.mm(h, torch.cat([linear.weight, linear.bias.unsqueeze(1)], 1).t())
-                else:
-                    h = torch.addmm(linear.bias, h, linear.weight.t())
-                if activation is not None:
+                relu = activation is torch.relu_
+                h = gemm.linear(h, linear.weight, linear.bias, relu=relu)
+                if activation is not None and not relu:
                     activation(h)
         return h, inputs
 
@@ -139,15 +138,10 @@ class TanhGaussianPolicy(EvaluationModeMixin, Policy):
             for i in range(len(self._layers) - 1, -1, -1):
                 linear = self._layers[i][0]
                 h = inputs[i][:rows]
-                if i == 0 and h.shape[1] == self.obs_dim + 1:  # [x, 1]: the bias gradient is the product's last column
-                    grad_weight = torch.mm(grad.t(), h)
-                    linear.weight.grad = grad_weight[:, :-1].contiguous()
-                    linear.bias.grad = grad_weight[:, -1].contiguous()
-                    continue
-                linear.weight.grad = torch.mm(grad.t(), h)
+                linear.weight.grad = gemm.mm(grad.t(), h)
                 linear.bias.grad = grad.sum(0)
                 if i > 0:
-                    grad = torch.mm(grad, linear.weight)
+                    grad = gemm.mm(grad, linear.weight)
                     if self._activation_names[i - 1] == "relu":  # h is the activation's output
                         torch.ops.aten.threshold_backward.grad_input(grad, h, 0.0, grad_input=grad)
                     elif self._activation_names[i - 1] == "tanh":

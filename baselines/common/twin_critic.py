@@ -1,11 +1,9 @@
-"""Twin Q-networks evaluated in one batched pass, differentiated by hand, with a soft-updated target copy.
+"""Twin Q-networks differentiated by hand, with a soft-updated target copy.
 
 The ``n`` critics ``Q_j(s, a)`` are MLPs of the same shape on ``[standardized s, a]`` whose layers are stored
-stacked (``weight: (n, fan_in, fan_out)``, ``bias: (n, 1, fan_out)``), so each layer of all critics is one
-batched matrix product (``torch.bmm``): one kernel per layer instead of ``n``. Hidden layers add the bias and
-apply the activation in place on the product (hot in cache), where ``baddbmm`` would first copy the broadcast
-bias into a fresh output; an input ``[s, a, 1]`` (:meth:`TwinCritic.with_ones`) takes the first layer's bias
-into its product.
+stacked (``weight: (n, fan_in, fan_out)``, ``bias: (n, 1, fan_out)``). They are evaluated critic by critic: each
+layer is one product with its bias and ReLU fused, on oneDNN (:mod:`baselines.common.gemm`: twice torch's
+batched product on this project's AMD machine, where ``torch.bmm`` goes to MKL's AVX2 kernels).
 
 :meth:`TwinCritic.backward` is the backward pass written out from the activations :meth:`TwinCritic.forward`
 kept, without autograd: the weight gradients of a loss on the values and, from the same products, the actor's
@@ -26,6 +24,7 @@ from collections.abc import Sequence
 import torch
 from torch import nn
 
+from baselines.common import gemm
 from baselines.common.networks import normc_
 
 _ACTIVATIONS = {"relu": torch.relu_, "tanh": torch.tanh_}  # in place on the fresh pre-activations
@@ -57,32 +56,26 @@ class TwinCritic(nn.Module):
         # module) costs more than a small kernel. Updates are in place, so the lists stay valid.
         self._weights, self._biases = list(self.weights), list(self.biases)
 
-    def forward(self, x: torch.Tensor, keep: bool = False) -> tuple[torch.Tensor, list[torch.Tensor]]:
+    def forward(self, x: torch.Tensor, keep: bool = False) -> tuple[torch.Tensor, list[list[torch.Tensor]]]:
         """``(values, hidden)``: every critic's value of each row of ``x = [s, a]`` (``(N, obs_dim + act_dim)`` ->
-        ``(n, N)``) and, with ``keep``, the hidden activations (each ``(n, N, width)``). ``x`` may end in a column of
-        ones (``[s, a, 1]``, see :meth:`with_ones`): the first layer's bias then enters its product."""
-        activate = _ACTIVATIONS[self.activation]
-        weights, biases = self._weights, self._biases
-        h = x.expand(self.n, -1, -1)
-        if x.shape[1] == weights[0].shape[1] + 1:
-            h = activate(torch.bmm(h, torch.cat([weights[0], biases[0]], 1)))
-        else:
-            h = activate(torch.bmm(h, weights[0]).add_(biases[0]))  # bias added in cache, not copied in first
-        hidden = [h]
-        for weight, bias in zip(weights[1:-1], biases[1:-1], strict=True):
-            h = activate(torch.bmm(h, weight).add_(bias))
-            hidden.append(h)
-        # One matrix-vector product per critic: as a batched product with a single output column, the last layer
-        # took ~9x longer (0.39 against 0.044 ms for 2 x 1024 rows of 256, one thread).
-        values = torch.stack([torch.mv(h[j], weights[-1][j, :, 0]) for j in range(self.n)]).add_(biases[-1].view(-1, 1))
+        ``(n, N)``) and, with ``keep``, the hidden activations (``hidden[layer][j]``: critic ``j``'s, ``(N, width)``).
+        Critic by critic, each layer one product with its bias (and ReLU) fused (:func:`~baselines.common.gemm.linear`);
+        the last layer one matrix-vector product per critic."""
+        relu = self.activation == "relu"
+        hidden = [[] for _ in self._weights[:-1]]
+        values = []
+        for j in range(self.n):
+            h = x
+            for i, (weight, bias) in enumerate(zip(self._weights[:-1], self._biases[:-1], strict=True)):
+                h = gemm.linear(h, weight[j].t(), bias[j, 0], relu=relu)
+                if not relu:
+                    h = _ACTIVATIONS[self.activation](h)
+                hidden[i].append(h)
+            values.append(torch.mv(h, self._weights[-1][j, :, 0]))
+        values = torch.stack(values).add_(self._biases[-1].view(-1, 1))
         return values, hidden if keep else []
 
-    @staticmethod
-    def with_ones(*columns: torch.Tensor) -> torch.Tensor:
-        """``[columns..., 1]``: the input ``[s, a, 1]`` of :meth:`forward` from ``s`` and ``a`` (rows of ``(N, .)``)."""
-        return torch.cat([*columns, torch.ones(columns[0].shape[0], 1)], 1)
-
-    def backward(self, x: torch.Tensor, hidden: Sequence[torch.Tensor], grad_values: torch.Tensor,
+    def backward(self, x: torch.Tensor, hidden: Sequence[Sequence[torch.Tensor]], grad_values: torch.Tensor,
                  loss_start: int = 0, action_critic: torch.Tensor | None = None,
                  action_scale: float = 1.0) -> torch.Tensor | None:
         """The backward pass of :meth:`forward` (run on ``x`` with ``keep``, activations ``hidden``), written out.
@@ -105,34 +98,37 @@ class TwinCritic(nn.Module):
         start = min(loss_start, first_action) if shared else loss_start  # P is needed for rows [start:stop]
         stop = n_total if shared else loss_start + n_loss
         loss = slice(loss_start - start, loss_start - start + n_loss)
-        rows, kept = x[start:stop], [h[:, start:stop] for h in hidden]
+        weight_grads, bias_grads = [torch.empty_like(w) for w in weights], [torch.empty_like(b) for b in biases]
+        action_grads = []
         with torch.no_grad():
-            scale = grad_values.unsqueeze(-1)
-            # as c^T h, not h^T c: the row-vector product reads h along its rows (~4x faster)
-            weights[-1].grad = torch.bmm(grad_values.unsqueeze(1), kept[-1][:, loss]).view(weights[-1].shape)
-            biases[-1].grad = grad_values.sum(1).view(self.n, 1, 1)
-            p = self._activation_backward(weights[-1].transpose(1, 2), kept[-1])  # dQ/dz of the last hidden layer
-            for i in range(len(kept) - 1, 0, -1):
-                weights[i].grad = torch.bmm((kept[i - 1][:, loss] * scale).transpose(1, 2), p[:, loss])
-                biases[i].grad = torch.bmm(grad_values.unsqueeze(1), p[:, loss])
-                p = torch.bmm(p, weights[i].transpose(1, 2))
-                self._activation_backward(p, kept[i - 1], out=p)
-            n_in = weights[0].shape[1]
-            if rows.shape[1] == n_in + 1:  # [s, a, 1]: the bias gradient is the product's last row
-                grad = torch.bmm((rows[loss] * scale).transpose(1, 2), p[:, loss])
-                weights[0].grad, biases[0].grad = grad[:, :n_in].contiguous(), grad[:, n_in:].contiguous()
-            else:
-                weights[0].grad = torch.bmm((rows[loss] * scale).transpose(1, 2), p[:, loss])
-                biases[0].grad = torch.bmm(grad_values.unsqueeze(1), p[:, loss])
+            for j in range(self.n):
+                c = grad_values[j]
+                kept = [h[j][start:stop] for h in hidden]
+                # as c^T h: the matrix-vector product reads h along its rows
+                torch.mv(kept[-1][loss].t(), c, out=weight_grads[-1][j, :, 0])
+                bias_grads[-1][j] = c.sum()
+                p = self._activation_backward(weights[-1][j, :, 0], kept[-1])  # dQ/dz of the last hidden layer
+                for i in range(len(kept) - 1, -1, -1):
+                    below = kept[i - 1] if i else x[start:stop]
+                    p_loss = p[loss]
+                    weight_grads[i][j] = gemm.mm((below[loss] * c.unsqueeze(1)).t(), p_loss)
+                    torch.mv(p_loss.t(), c, out=bias_grads[i][j, 0])
+                    if i:
+                        p = gemm.linear(p, weights[i][j])
+                        self._activation_backward(p, kept[i - 1], out=p)
+                if shared:
+                    action_grads.append(gemm.mm(p[p.shape[0] - n_actions:], weights[0][j, self.obs_dim:].t()))
+            for param, grad in zip(weights + biases, weight_grads + bias_grads, strict=True):
+                param.grad = grad
             if not n_actions:
                 return None
             if not shared:
                 return self._selected_action_gradient(hidden, first_action, action_critic, action_scale)
-            grad = torch.bmm(p[:, p.shape[1] - n_actions:], weights[0][:, self.obs_dim:].transpose(1, 2))
+            grad = torch.stack(action_grads)
             index = action_critic.view(1, n_actions, 1).expand(1, n_actions, grad.shape[2])
             return grad.gather(0, index).squeeze(0).mul_(action_scale)
 
-    def _selected_action_gradient(self, hidden: Sequence[torch.Tensor], first: int, critic: torch.Tensor,
+    def _selected_action_gradient(self, hidden: Sequence[Sequence[torch.Tensor]], first: int, critic: torch.Tensor,
                                   scale: float) -> torch.Tensor:
         """``scale * dQ_c(s, a)/da`` for rows ``first + i`` with ``c = critic[i]``: each row down its critic only
         (gathered per critic: half the products of going down both)."""
@@ -144,21 +140,26 @@ class TwinCritic(nn.Module):
                 continue
             rows = index + first
             kept = [h[j].index_select(0, rows) for h in hidden]
-            p = self._activation_backward(weights[-1][j].t(), kept[-1])
+            p = self._activation_backward(weights[-1][j, :, 0], kept[-1])
             for i in range(len(kept) - 1, 0, -1):
-                p = torch.mm(p, weights[i][j].t())
+                p = gemm.linear(p, weights[i][j])
                 self._activation_backward(p, kept[i - 1], out=p)
-            grad.index_copy_(0, index, torch.mm(p, weights[0][j, self.obs_dim:].t()).mul_(scale))
+            grad.index_copy_(0, index, gemm.mm(p, weights[0][j, self.obs_dim:].t()).mul_(scale))
         return grad
 
-    def action_gradient(self, hidden: Sequence[torch.Tensor], grad_values: torch.Tensor) -> torch.Tensor:
+    def action_gradient(self, hidden: Sequence[Sequence[torch.Tensor]], grad_values: torch.Tensor) -> torch.Tensor:
         """``sum_j grad_values[j] * dQ_j(s, a)/da`` (``(N, act_dim)``) for the rows whose hidden activations (as kept
         by :meth:`forward`) are ``hidden``: the backward pass written out, no graph, current weights."""
+        weights = self._weights
         with torch.no_grad():
-            grad = self._activation_backward(grad_values.unsqueeze(-1) * self._weights[-1].transpose(1, 2), hidden[-1])
-            for i in range(len(hidden) - 1, 0, -1):
-                grad = self._activation_backward(torch.bmm(grad, self._weights[i].transpose(1, 2)), hidden[i - 1])
-            return torch.bmm(grad, self._weights[0][:, self.obs_dim:].transpose(1, 2)).sum(0)
+            total = None
+            for j in range(self.n):
+                grad = self._activation_backward(grad_values[j].unsqueeze(1) * weights[-1][j, :, 0], hidden[-1][j])
+                for i in range(len(hidden) - 1, 0, -1):
+                    grad = self._activation_backward(gemm.linear(grad, weights[i][j]), hidden[i - 1][j])
+                grad = gemm.mm(grad, weights[0][j, self.obs_dim:].t())
+                total = grad if total is None else total.add_(grad)
+            return total
 
     def _activation_backward(self, grad: torch.Tensor, h: torch.Tensor,
                              out: torch.Tensor | None = None) -> torch.Tensor:
