@@ -299,62 +299,56 @@ class FastTRPO(TRPO):
     def _analytic_fisher(self, obs: torch.Tensor) -> FisherOperator:
         """``F = J^T diag(exp(-2 log_std)) J / N`` on the mean network, ``2 I`` on ``log_std``.
 
-        With ``pre_i = W_i h_i + b_i`` the pre-activation of layer ``i`` and ``B_i = d mean / d pre_i`` (per
-        sample, ``act_dim x n_i``), the mean moves along ``v = (V_i, c_i)_i`` by ``J v = sum_i B_i (V_i h_i + c_i)``
-        and ``J^T u`` has blocks ``(B_i^T u) h_i^T`` and ``B_i^T u``. The inputs ``h_i`` and the ``B_i`` are
-        computed once per fit; a product then costs two matrix products per layer (``V_i h_i`` and
-        ``(B_i^T u)^T h_i``) and a few per-sample contractions with ``B_i``.
+        ``J v`` is the mean's forward-mode derivative along ``v = (V_i, c_i)_i``: with ``h_i`` the input of layer
+        ``i`` and ``s_i`` its activation's slope, ``dz_i = W_i dh_i + V_i h_i + c_i`` and ``dh_{i+1} = s_i * dz_i``;
+        ``J^T u`` is the backward pass of ``u`` (``delta_i = (delta_{i+1} W_{i+1}) * s_i``, blocks ``delta_i^T h_i``
+        and ``sum delta_i``). The inputs and activations are kept once per fit; a product then costs four matrix
+        products per layer, all of them large (oneDNN's, :mod:`baselines.common.gemm`), where contracting with
+        per-sample Jacobians ``d mean / d z_i`` (``N x act_dim x width``) was memory-bound: 1.5 against 2.3 ms per
+        product and 0.6 against 12.9 ms of setup on UnitreeH1's 200-row subsample, same values to 1e-7.
         """
         policy = self.policy
         modules = list(policy.mean_net)
         linears, activations = modules[0::2], modules[1::2]
         n_layers, n = len(linears), obs.shape[0]
         inputs: list[torch.Tensor] = []  # h_i, the input of each Linear layer
-        slopes: list[torch.Tensor | None] = []  # activation derivative at each pre-activation (None: identity)
+        outputs: list[torch.Tensor] = []  # each activation's output, from which its slope follows
         with torch.no_grad():
             h = obs.float()
             if policy.standardizer is not None:
                 h = policy.standardizer.normalize_torch(h)
             for linear, activation in zip(linears, activations, strict=True):
                 inputs.append(h)
-                pre = gemm.linear(h, linear.weight, linear.bias)
-                h = activation(pre)
-                if isinstance(activation, nn.ReLU):
-                    slopes.append((pre > 0).to(pre.dtype))
-                elif isinstance(activation, nn.Tanh):
-                    slopes.append(1.0 - h * h)
-                else:
-                    slopes.append(None)
-            # B_i for the hidden layers, from the output down: B_i = (B_{i+1} W_{i+1}) * slope_i.
-            out_slope = slopes[-1]
-            jacobians: list[torch.Tensor] = [torch.empty(0)] * (n_layers - 1)
-            b_w = linears[-1].weight[None] if out_slope is None else out_slope[:, :, None] * linears[-1].weight
-            for i in range(n_layers - 2, -1, -1):
-                jac = b_w.expand(n, -1, -1) if slopes[i] is None else b_w * slopes[i][:, None, :]
-                jacobians[i] = jac.contiguous()
-                if i > 0:
-                    b_w = torch.matmul(jacobians[i], linears[i].weight)
+                h = activation(gemm.linear(h, linear.weight, linear.bias))
+                outputs.append(h)
             precision = torch.exp(-2.0 * policy.log_std.detach()) / n
         sizes = [p.numel() for p in policy.parameters()]
+
+        def slope(grad: torch.Tensor, i: int) -> torch.Tensor:
+            """``grad * s_i``: through layer ``i``'s activation at the kept point."""
+            if isinstance(activations[i], nn.ReLU):
+                return torch.ops.aten.threshold_backward(grad, outputs[i], 0.0)
+            if isinstance(activations[i], nn.Tanh):
+                return torch.ops.aten.tanh_backward(grad, outputs[i])
+            return grad
 
         def fvp(v: torch.Tensor) -> torch.Tensor:
             with torch.no_grad():
                 pieces = torch.split(v, sizes)  # weight_0, bias_0, weight_1, bias_1, ..., log_std
-                # J v: the change of the mean action along v.
-                z = [gemm.linear(inputs[i], pieces[2 * i].view_as(linears[i].weight), pieces[2 * i + 1])
-                     for i in range(n_layers)]
-                d_mean = z[-1] if out_slope is None else z[-1] * out_slope
-                for i in range(n_layers - 1):
-                    d_mean = d_mean + (jacobians[i] * z[i][:, None, :]).sum(dim=-1)
-                # J^T (diag(precision) J v).
-                u = d_mean * precision
-                out: list[torch.Tensor] = []
+                # J v: the change of the mean action along v, forward mode.
+                d_h = None
                 for i in range(n_layers):
-                    if i < n_layers - 1:
-                        delta = torch.bmm(u[:, None, :], jacobians[i])[:, 0]
-                    else:
-                        delta = u if out_slope is None else u * out_slope
-                    out += [gemm.mm(delta.t(), inputs[i]).reshape(-1), delta.sum(dim=0)]
+                    d_z = gemm.linear(inputs[i], pieces[2 * i].view_as(linears[i].weight), pieces[2 * i + 1])
+                    if d_h is not None:
+                        d_z += gemm.linear(d_h, linears[i].weight)
+                    d_h = slope(d_z, i)
+                # J^T (diag(precision) J v), backward mode.
+                out: list[torch.Tensor] = [torch.empty(0)] * (2 * n_layers)
+                delta = slope(d_h * precision, n_layers - 1)
+                for i in range(n_layers - 1, -1, -1):
+                    out[2 * i], out[2 * i + 1] = gemm.mm(delta.t(), inputs[i]).reshape(-1), delta.sum(dim=0)
+                    if i > 0:
+                        delta = slope(gemm.mm(delta, linears[i].weight), i - 1)
                 out.append(2.0 * pieces[-1])
                 return torch.cat(out)
 
