@@ -58,6 +58,13 @@ def output_stem(run) -> str:
     return stem
 
 
+def _default_control(task: str) -> str:
+    """The control the task's environment uses when the run's config names none."""
+    import loco_mujoco as lm
+
+    return lm.LocoEnv.make(task).control
+
+
 def plot_run(run_dir: Path, out_dir: Path | None = None, force: bool = False,
              written: set[Path] | None = None) -> Path:
     """Write ``run_dir``'s csv, png and references into ``out_dir`` (default: ``run_dir``); an existing file not in
@@ -111,7 +118,8 @@ def plot_run(run_dir: Path, out_dir: Path | None = None, force: bool = False,
         ax.set_title(label)
         ax.grid(alpha=0.3)
     axes[0].legend()
-    title = (f"{run.algorithm} on {run.task} ({run.env.get('control', 'default')} control), seed {run.seed}: "
+    control = run.env.get("control") or _default_control(run.task)  # a .perfect dataset brings its agent's control
+    title = (f"{run.algorithm} on {run.task} ({control} control), seed {run.seed}: "
              f"deterministic evaluation, {run.train.n_eval_episodes} episodes per point")
     if run.init_from is not None:
         changes = ", ".join(f"{k} {a}\u2192{b}" for k, (a, b) in config_changes(run.init_from["run_config"],
