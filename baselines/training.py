@@ -1,8 +1,9 @@
 """Train an adversarial imitation agent epoch by epoch, with evaluation, logging and exact checkpoints.
 
 A run directory holds ``config.yaml`` (the resolved configuration), ``checkpoint.pt`` (the latest epoch),
-``progress.csv`` (one row per epoch: evaluation and training statistics) and ``tensorboard/``; a warm-started
-run also keeps ``init_from_progress.csv``, its source's log up to the checkpoint it started from.
+``progress.csv`` (one row per epoch: evaluation and training statistics), ``machines.csv`` (the machine of each
+start and resume, :mod:`baselines.common.machine`) and ``tensorboard/``; a warm-started run also keeps
+``init_from_progress.csv``, its source's log up to the checkpoint it started from (and its source's machines).
 
 One epoch is one ``Core.learn`` call of ``train.epoch_steps`` steps (it ends on a fit), then a deterministic
 evaluation on a separate environment re-seeded with ``train.eval_seed`` (the same start states every epoch; with
@@ -41,6 +42,7 @@ from baselines.common.batched import BatchedCollector, env_seeds
 from baselines.common.evaluation import evaluate
 from baselines.common.expert_data import ExpertData, kinematic_obs_mask
 from baselines.common.logger import CSVLogger
+from baselines.common.machine import MACHINES, read_machines, record_machine
 from baselines.config import RunConfig
 from loco_mujoco.evaluation.protocol import evaluation_env
 from loco_mujoco.evaluation.references import references
@@ -215,6 +217,7 @@ class Trainer:
         self.eval_env = evaluation_env(run.task, run.env, seed=run.train.eval_seed)  # the real task's starts
         self.out_dir.mkdir(parents=True, exist_ok=True)  # only now: a start that fails leaves nothing behind
         self.epoch, self.steps, self.wall_s = 0, 0, 0.0
+        self._source_machines = None  # a warm start's source rows of machines.csv, written with the first train()
         if state is not None:
             self._restore(state)
             _truncate_csv(self.out_dir / "progress.csv", self.steps)
@@ -235,6 +238,8 @@ class Trainer:
         self._bar = tqdm(total=run.train.n_steps, initial=self.steps, unit="step", dynamic_ncols=True,
                          disable=not self.progress, desc=f"{run.algorithm} {run.task}")
         self._live_steps = self.steps
+        record_machine(self.out_dir, self.steps, torch.get_num_threads(), previous=self._source_machines)
+        self._source_machines = None
         try:
             while self.steps < run.train.n_steps:
                 n = min(run.train.epoch_steps, run.train.n_steps - self.steps)
@@ -346,6 +351,7 @@ class Trainer:
         if source_log.exists():  # the source's curve up to the checkpoint, so the whole history stays together
             shutil.copy(source_log, self.out_dir / INIT_FROM_PROGRESS)
             _truncate_csv(self.out_dir / INIT_FROM_PROGRESS, self.steps)
+        self._source_machines = read_machines(source_log.parent)
 
     def _restore(self, state: dict[str, Any]) -> None:
         self.agent.load_state_dict(state["agent"])
@@ -379,7 +385,7 @@ def _warm_start_record(state: dict[str, Any], path: str | Path, run: RunConfig) 
             "run_config": source.to_dict()}
 
 
-RUN_FILES = (CHECKPOINT, "progress.csv", "config.yaml", INIT_FROM_PROGRESS, "tensorboard", REPLAY)
+RUN_FILES = (CHECKPOINT, "progress.csv", "config.yaml", INIT_FROM_PROGRESS, MACHINES, "tensorboard", REPLAY)
 
 
 def _check_fresh_run_dir(out_dir: Path) -> None:

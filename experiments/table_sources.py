@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from baselines.common.machine import machine_summary, read_machines
 from loco_mujoco.core.task_names import parse_task_name
 
 # Per-episode imitation metrics pooled over seeds (key in the evaluation file's "metrics"), and per-evaluation ones
@@ -183,6 +184,12 @@ def _run_hours(run_dir: Path, config: dict[str, Any], steps: int) -> float | Non
     return None if before is None or after is None else before + after
 
 
+def _machine(run_dir: Path, config: dict[str, Any], steps: int) -> str | None:
+    """The machine kind(s) that trained ``run_dir`` up to ``steps``: its ``machines.csv`` (written by the Trainer
+    since 2026-11-27), else a ``machine`` key of its config, else None."""
+    return machine_summary(read_machines(run_dir), steps) or config.get("machine")
+
+
 def _matches(config: dict[str, Any] | None, result: SeedResult) -> bool:
     return (config is not None and config.get("task") == result.task and config.get("algorithm") == result.algorithm
             and int(config.get("seed", -1)) == result.seed)
@@ -195,8 +202,8 @@ def find_budget(result: SeedResult, runs_dir: Path, results_dir: Path) -> Budget
     own = runs_dir / result.stem if result.stem else None
     if own is not None and _matches(read_config(own), result) and (own / "progress.csv").exists():
         config = read_config(own)
-        return Budget(result.steps, _run_hours(own, config, result.steps), result.machine or config.get("machine"),
-                      f"{runs_dir.name}/{own.name}/progress.csv")
+        return Budget(result.steps, _run_hours(own, config, result.steps),
+                      result.machine or _machine(own, config, result.steps), f"{runs_dir.name}/{own.name}/progress.csv")
     copy = results_dir / f"{result.stem}.csv" if result.stem else None
     if copy is not None and copy.exists():
         rows = read_progress(copy)
@@ -208,7 +215,7 @@ def find_budget(result: SeedResult, runs_dir: Path, results_dir: Path) -> Budget
         if _matches(config, result) and (run_dir / "progress.csv").exists():
             hours = _run_hours(run_dir, config, result.steps)
             if hours is not None:
-                found.append(Budget(result.steps, hours, result.machine or config.get("machine"),
+                found.append(Budget(result.steps, hours, result.machine or _machine(run_dir, config, result.steps),
                                     f"{runs_dir.name}/{run_dir.name}/progress.csv"))
     return found[0] if len(found) == 1 else Budget(result.steps, None, result.machine, None)
 
@@ -235,7 +242,7 @@ def training_runs(runs_dir: Path) -> list[TrainingRun]:
         if not rows:
             continue
         steps = int(rows[-1]["step"])
-        budget = Budget(steps, _run_hours(run_dir, config, steps), config.get("machine"),
+        budget = Budget(steps, _run_hours(run_dir, config, steps), _machine(run_dir, config, steps),
                         f"{runs_dir.name}/{run_dir.name}/progress.csv")
         out.append(TrainingRun(config["task"], config["algorithm"], int(config["seed"]), budget, run_dir.name))
     return out

@@ -106,6 +106,8 @@ def test_perfect_data_superseded_seeds_and_runs_without_evaluation(dirs):
     (run / "config.yaml").write_text(yaml.safe_dump({"task": "UnitreeH1.walk.perfect", "algorithm": "sqil",
                                                      "seed": 0}))
     (run / "progress.csv").write_text("step,epoch,train_steps_per_s\n20000,1,100\n40000,2,50\n")
+    (run / "machines.csv").write_text("step,machine,cpus,torch_threads,started\n0,Xeon (16 CPUs),16,1,-\n"
+                                      "20000,EPYC (2 CPUs),2,1,-\n")
     rows, _ = table(results, runs)
     bc = rows["UnitreeH1.walk", "bc"]
     assert bc.data == "perfect" and bc.notes[0] == "(perfect data)" and bc.figures["score"] == pytest.approx(20.0)
@@ -114,6 +116,7 @@ def test_perfect_data_superseded_seeds_and_runs_without_evaluation(dirs):
     assert vail.figures["score"] == pytest.approx(20.0) and "superseded" in vail.notes[0]
     sqil = rows["UnitreeH1.walk", "sqil"]
     assert sqil.status == NOT_EVALUATED and sqil.budgets[0].steps == 40_000
+    assert sqil.budgets[0].machine == "Xeon (16 CPUs) 0-20k + EPYC (2 CPUs) 20k-40k"  # from the run's machines.csv
     assert sqil.budgets[0].hours == pytest.approx((20_000 / 100 + 20_000 / 50) / 3600)
     from experiments.results_table import compute_cost, compute_lines
 

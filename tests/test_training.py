@@ -21,6 +21,7 @@ from baselines.common.inverse_dynamics import (  # noqa: E402
     inverse_dynamics_actions,
     inverse_dynamics_report,
 )
+from baselines.common.machine import cpu_model, describe, machine_summary, read_machines, record_machine  # noqa: E402
 from baselines.config import CONFIG_DIR, ConfigError, load_run_config, parse_overrides  # noqa: E402
 from baselines.training import Trainer, load_checkpoint  # noqa: E402
 from experiments.plot_results import config_changes  # noqa: E402
@@ -169,6 +170,23 @@ def test_resumed_run_reproduces_the_uninterrupted_one_exactly(tmp_path):
     assert_identical(a["torch_rng"], b["torch_rng"])
     assert progress_rows(tmp_path / "straight") == progress_rows(tmp_path / "split")
     assert len(progress_rows(tmp_path / "split")) == 3
+    here = describe()
+    assert [(r["step"], r["machine"]) for r in read_machines(tmp_path / "straight")] == [("0", here)]
+    assert [(r["step"], r["machine"]) for r in read_machines(tmp_path / "split")] == [("0", here), ("400", here)]
+
+
+def test_machine_log_drops_unsaved_stretches_and_summarises_several_machines(tmp_path):
+    record_machine(tmp_path, 0, 1)
+    record_machine(tmp_path, 400, 2)
+    record_machine(tmp_path, 400, 1)  # a resume from the same checkpoint replaces the stretch that saved nothing
+    rows = read_machines(tmp_path)
+    assert [(r["step"], r["torch_threads"]) for r in rows] == [("0", "1"), ("400", "1")]
+    assert machine_summary(rows, 800) == describe() and machine_summary([], 800) is None
+    assert describe(16).endswith("(16 CPUs)") and cpu_model()
+    lent = [{"step": "0", "machine": "Xeon (16 CPUs)"}, {"step": "1000000", "machine": "Xeon (16 CPUs)"},
+            {"step": "5000000", "machine": "EPYC (2 CPUs)"}, {"step": "19000000", "machine": "EPYC (2 CPUs)"}]
+    assert machine_summary(lent, 20_000_000) == "Xeon (16 CPUs) 0-5.0M + EPYC (2 CPUs) 5.0M-20.0M"
+    assert machine_summary(lent, 5_000_000) == "Xeon (16 CPUs)"  # the stretch from 5M on trained none of it
 
 
 def test_resume_drops_log_rows_of_an_unsaved_epoch_and_refuses_mismatches(tmp_path):
@@ -205,6 +223,7 @@ def test_warm_start_loads_the_agent_continues_the_step_count_and_records_its_sou
     assert [r["step"] for r in rows] == ["800"]  # only its own epochs, on the continued step count
     with (tmp_path / "warm" / "init_from_progress.csv").open(newline="") as f:  # the source's log, kept beside
         assert [r["step"] for r in csv.DictReader(f)] == ["400"]
+    assert [r["step"] for r in read_machines(tmp_path / "warm")] == ["0", "400"]  # the source's machine, then its own
     assert config_changes(warm.run.init_from["run_config"], warm.run.to_dict()) == {
         "train.n_steps_per_fit": (200, 400)}
     saved = load_checkpoint(tmp_path / "warm")

@@ -1,0 +1,88 @@
+"""Which machine trained which steps of a run: ``machines.csv`` in the run directory, one row per start or resume.
+
+The results table states its hours "on the machine kind used"; a run resumed elsewhere (a lent 16-core machine,
+then a 2-core one) has one row per stretch, each with the step it started from, so the table can say which
+machine trained which steps.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import platform
+import time
+from pathlib import Path
+
+MACHINES = "machines.csv"
+FIELDS = ("step", "machine", "cpus", "torch_threads", "started")
+
+
+def cpu_model() -> str:
+    """The processor's model name (``/proc/cpuinfo``), else what ``platform`` knows of it."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return " ".join(line.split(":", 1)[1].split())
+    except OSError:
+        pass
+    return platform.processor() or platform.machine() or "unknown CPU"
+
+
+def usable_cpus() -> int:
+    """CPUs this process may run on (its affinity where the OS tells it, else the machine's count)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def describe(cpus: int | None = None) -> str:
+    """A short name of the machine kind, e.g. ``AMD EPYC (2 CPUs)``."""
+    return f"{cpu_model()} ({cpus or usable_cpus()} CPUs)"
+
+
+def read_machines(run_dir: str | Path) -> list[dict[str, str]]:
+    """The rows of ``run_dir``'s ``machines.csv``, oldest first; [] for a run that has none (older runs)."""
+    path = Path(run_dir) / MACHINES
+    if not path.exists():
+        return []
+    with path.open(newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def record_machine(run_dir: str | Path, step: int, torch_threads: int,
+                   previous: list[dict[str, str]] | None = None) -> None:
+    """Log that training of ``run_dir`` (re)starts at ``step`` on this machine.
+
+    Rows from ``step`` on are dropped first: they began stretches whose epochs were never checkpointed (a resume
+    goes back to the checkpoint). ``previous`` (a warm start's source rows) replaces the file's own rows.
+    """
+    path = Path(run_dir) / MACHINES
+    rows = read_machines(run_dir) if previous is None else previous
+    rows = [r for r in rows if int(r["step"]) < step]
+    rows.append({"step": str(step), "machine": describe(), "cpus": str(usable_cpus()),
+                 "torch_threads": str(torch_threads), "started": time.strftime("%Y-%m-%dT%H:%M:%S%z")})
+    with path.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=FIELDS, extrasaction="ignore")
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def _steps(n: int) -> str:
+    return f"{n / 1e6:.1f}M" if n >= 1_000_000 else f"{n / 1e3:.0f}k" if n else "0"
+
+
+def machine_summary(rows: list[dict[str, str]], end_step: int) -> str | None:
+    """The machines that trained the run up to ``end_step``: one name, or each with its steps when several did
+    (``Intel Xeon (16 CPUs) 0-1.0M + AMD EPYC (2 CPUs) 1.0M-20.0M``); None without rows."""
+    rows = [r for r in rows if int(r["step"]) < end_step] or rows[:1]
+    if not rows:
+        return None
+    stretches: list[list] = []  # [machine, first step]; consecutive rows on one machine are one stretch
+    for r in rows:
+        if not stretches or stretches[-1][0] != r["machine"]:
+            stretches.append([r["machine"], int(r["step"])])
+    if len(stretches) == 1:
+        return stretches[0][0]
+    ends = [s[1] for s in stretches[1:]] + [end_step]
+    return " + ".join(f"{m} {_steps(start)}-{_steps(end)}" for (m, start), end in zip(stretches, ends, strict=True))
