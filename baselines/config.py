@@ -56,11 +56,16 @@ class TrainConfig:
     # n_steps_per_fit / n_envs consecutive steps to a fit (baselines/common/batched.py); 1: Core with one env
     n_envs: int = 1
     env_threads: int = 0  # with n_envs > 1: threads stepping the environments (0: one per core, at most 2)
+    # training steps between policy snapshots (``<run>/snapshots/<steps>/``, policy-only exports written with the
+    # checkpoint of the first epoch at or past each multiple; the agents of preference datasets); 0: none
+    snapshot_every: int = 0
 
     def validate(self) -> None:
         for name in ("n_steps", "epoch_steps", "n_eval_episodes", "n_steps_per_fit", "n_envs"):
             if getattr(self, name) < 1:
                 raise ConfigError(f"train.{name} must be >= 1, got {getattr(self, name)}")
+        if self.snapshot_every < 0:
+            raise ConfigError(f"train.snapshot_every must be >= 0 (0: no snapshots), got {self.snapshot_every}")
         if self.env_threads < 0:
             raise ConfigError(f"train.env_threads must be >= 0 (0: one per core, at most 2), got {self.env_threads}")
         if self.n_steps_per_fit % self.n_envs:

@@ -65,7 +65,11 @@ def export_checkpoint(checkpoint: str | Path, out_dir: str | Path, evaluation: d
     run = run_config_from_checkpoint(state)
     _, agent = build(run)
     agent.load_state_dict(state["agent"])
-    card = {"task": run.task, "algorithm": run.algorithm, "seed": run.seed, "steps": int(state["steps"]),
-            "env": dict(run.env), "source_checkpoint": str(Path(checkpoint).as_posix()),
-            "evaluation": evaluation or {}, "format": "loco_mujoco.policy/1"}
+    card = run_card(run, int(state["steps"]), evaluation, source_checkpoint=str(Path(checkpoint).as_posix()))
     return export_agent(agent, out_dir, card, run.to_dict(), overwrite=overwrite)
+
+
+def run_card(run: Any, steps: int, evaluation: dict[str, Any] | None = None, **extra: Any) -> dict[str, Any]:
+    """The card of an export of ``run``'s policy after ``steps`` training steps (``evaluation``: protocol figures)."""
+    return {"task": run.task, "algorithm": run.algorithm, "seed": run.seed, "steps": int(steps),
+            "env": dict(run.env), **extra, "evaluation": evaluation or {}, "format": "loco_mujoco.policy/1"}

@@ -2,7 +2,8 @@
 
 A run directory holds ``config.yaml`` (the resolved configuration), ``checkpoint.pt`` (the latest epoch),
 ``progress.csv`` (one row per epoch: evaluation and training statistics), ``machines.csv`` (the machine of each
-start and resume, :mod:`baselines.common.machine`) and ``tensorboard/``; a warm-started run also keeps
+start and resume, :mod:`baselines.common.machine`), ``snapshots/<steps>/`` (policy-only exports every
+``train.snapshot_every`` steps) and ``tensorboard/``; a warm-started run also keeps
 ``init_from_progress.csv``, its source's log up to the checkpoint it started from (and its source's machines).
 
 One epoch is one ``Core.learn`` call of ``train.epoch_steps`` steps (it ends on a fit), then a deterministic
@@ -52,6 +53,7 @@ CHECKPOINT_FORMAT = 1
 INIT_FROM_PROGRESS = "init_from_progress.csv"  # a warm-started run's copy of its source's log
 REPLAY = "replay.npz"  # an off-policy run's replay buffer, beside its checkpoint (large: never committed)
 REPLAY_NEXT = "replay.next.npz"  # the buffer being written with the next checkpoint
+SNAPSHOTS = "snapshots"  # policy-only exports every train.snapshot_every steps (small: the preference agents)
 
 
 def make_env(run: RunConfig, seed: int) -> Any:
@@ -195,6 +197,7 @@ class Trainer:
                 raise ValueError(f"{self.checkpoint_path} is {saved.algorithm} on {saved.task} seed {saved.seed}, "
                                  f"not {run.algorithm} on {run.task} seed {run.seed}")
             saved.train.n_steps = run.train.n_steps  # what a resume may change: how long to go on,
+            saved.train.snapshot_every = run.train.snapshot_every  # how often to keep a policy snapshot,
             if n_threads is not None:  # and how many torch threads the learner uses (speed, not the algorithm)
                 saved.agent.n_threads = n_threads
             run = saved
@@ -257,6 +260,9 @@ class Trainer:
                 self.logger.log(self.steps, epoch=self.epoch, **last_eval, train_steps_per_s=n / train_s,
                                 **{k: v for k, v in stats.items() if k != "fit"})
                 self.save()
+                if run.train.snapshot_every and self.steps // run.train.snapshot_every > (self.steps - n) // \
+                        run.train.snapshot_every:
+                    self.snapshot(last_eval)
                 line = self.on_evaluation(self.steps, last_eval) if self.on_evaluation is not None else None
                 if line:
                     self._bar.write(line)
@@ -325,6 +331,16 @@ class Trainer:
         if buffered:
             os.replace(self.out_dir / REPLAY_NEXT, self.out_dir / REPLAY)
 
+    def snapshot(self, figures: dict[str, float]) -> Path:
+        """Export the current policy to ``snapshots/<steps>/`` with this epoch's evaluation figures on its card
+        (``training_evaluation``: the run's own deterministic episodes, not the protocol's)."""
+        from baselines.export import export_agent, run_card
+
+        card = run_card(self.run, self.steps, source_run=str(self.out_dir.as_posix()), epoch=self.epoch,
+                        training_evaluation={k: float(v) for k, v in figures.items()})
+        return export_agent(self.agent, self.out_dir / SNAPSHOTS / str(self.steps), card, self.run.to_dict(),
+                            overwrite=True)
+
     def _restore_buffer(self) -> None:
         """The replay buffer saved with the checkpoint; without it (only the committed small state survived) the run
         goes on as a documented warm start, and says so."""
@@ -385,7 +401,8 @@ def _warm_start_record(state: dict[str, Any], path: str | Path, run: RunConfig) 
             "run_config": source.to_dict()}
 
 
-RUN_FILES = (CHECKPOINT, "progress.csv", "config.yaml", INIT_FROM_PROGRESS, MACHINES, "tensorboard", REPLAY)
+RUN_FILES = (CHECKPOINT, "progress.csv", "config.yaml", INIT_FROM_PROGRESS, MACHINES, "tensorboard", REPLAY,
+             SNAPSHOTS)
 
 
 def _check_fresh_run_dir(out_dir: Path) -> None:

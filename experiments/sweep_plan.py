@@ -24,7 +24,7 @@ from experiments.launch import resolve_run, run_dir
 from experiments.sweep_spec import SweepSpec
 
 # What a resume may change, so what a sweep re-run may differ in; ``sources`` are paths, not values.
-NOT_COMPARED = ("train.n_steps", "agent.n_threads", "sources")
+NOT_COMPARED = ("train.n_steps", "train.snapshot_every", "agent.n_threads", "sources")
 # A run killed before its first checkpoint leaves only these behind; it is started again from scratch.
 UNSTARTED_FILES = ("config.yaml", "progress.csv", "tensorboard")
 

@@ -13,6 +13,7 @@ import torch
 import yaml
 
 import loco_mujoco as lm
+from loco_mujoco.policy_export import PolicyExport
 
 # isort: split
 from baselines import ALGORITHMS  # noqa: E402
@@ -23,6 +24,7 @@ from baselines.common.inverse_dynamics import (  # noqa: E402
 )
 from baselines.common.machine import cpu_model, describe, machine_summary, read_machines, record_machine  # noqa: E402
 from baselines.config import CONFIG_DIR, ConfigError, load_run_config, parse_overrides  # noqa: E402
+from baselines.export import export_checkpoint  # noqa: E402
 from baselines.training import Trainer, load_checkpoint  # noqa: E402
 from experiments.plot_results import config_changes  # noqa: E402
 from loco_mujoco.core.task_names import DATASET_TYPES, list_tasks  # noqa: E402
@@ -173,6 +175,29 @@ def test_resumed_run_reproduces_the_uninterrupted_one_exactly(tmp_path):
     here = describe()
     assert [(r["step"], r["machine"]) for r in read_machines(tmp_path / "straight")] == [("0", here)]
     assert [(r["step"], r["machine"]) for r in read_machines(tmp_path / "split")] == [("0", here), ("400", here)]
+
+
+def test_snapshots_export_the_policy_at_each_multiple_and_a_resume_may_turn_them_on(tmp_path):
+    run = tiny_run(n_steps=800)
+    run.train.snapshot_every = 0
+    Trainer(run, tmp_path, progress=False).train()
+    assert not (tmp_path / "snapshots").exists()
+    longer = tiny_run(n_steps=2000)
+    longer.train.snapshot_every = 600  # epochs end at 1200, 1600, 2000: the first at or past 1200 and 1800
+    resumed = Trainer(longer, tmp_path, resume=True, progress=False)
+    assert resumed.run.train.snapshot_every == 600
+    resumed.train()
+    assert sorted(int(p.name) for p in (tmp_path / "snapshots").iterdir()) == [1200, 2000]
+    snap = PolicyExport.load(tmp_path / "snapshots" / "2000")
+    assert snap.card["steps"] == 2000 and snap.card["task"] == "UnitreeH1.walk" and snap.card["evaluation"] == {}
+    assert set(snap.card["training_evaluation"]) >= {"R", "L", "score"}
+    final = PolicyExport.load(export_checkpoint(tmp_path / "checkpoint.pt", tmp_path / "final"))
+    obs = np.random.default_rng(0).normal(size=(5, resumed.env.info.observation_space.shape[0]))
+    np.testing.assert_array_equal(snap.mean_action(obs), final.mean_action(obs))  # the checkpoint's policy
+    assert not np.array_equal(PolicyExport.load(tmp_path / "snapshots" / "1200").mean_action(obs),
+                              snap.mean_action(obs))
+    with pytest.raises(ConfigError, match="snapshot_every must be >= 0"):
+        load_run_config("UnitreeH1.walk", "vail", overrides={"train": {"snapshot_every": -1}})
 
 
 def test_machine_log_drops_unsaved_stretches_and_summarises_several_machines(tmp_path):
