@@ -38,7 +38,9 @@ def test_available_lists_the_committed_agents_only():
     assert PretrainedId("UnitreeH1.walk", "gaifo", 0) in agents
     assert PretrainedId("UnitreeH1.walk.perfect", "bc", 0) in agents
     assert not {a.algorithm for a in agents} & {"preference", "datasets"}  # other folders under a task
-    assert available(algo="vail") == [PretrainedId("UnitreeH1.walk", "vail", 0)]
+    vail_agents = available(algo="vail")
+    assert PretrainedId("UnitreeH1.walk", "vail", 0) in vail_agents and {a.algorithm for a in vail_agents} == {"vail"}
+    assert vail_agents == sorted(vail_agents)
     for agent in agents:  # each card agrees with its folder (load checks)
         policy = load(agent.task, agent.algorithm, agent.seed)
         assert (policy.task, policy.algorithm, policy.seed) == (agent.task, agent.algorithm, agent.seed)
