@@ -60,6 +60,9 @@ AGENT_RECIPES: dict[str, AgentRecipe] = {
     "UnitreeH1.walk.preference": AgentRecipe(
         exports=("UnitreeH1.walk/vail/seed0", "UnitreeH1.walk/preference/vail_seed0_21.7M",
                  "UnitreeH1.walk/preference/vail_seed0_4.4M", "UnitreeH1.walk/gaifo/seed0"), episodes_per_set=100),
+    "Atlas.walk.preference": AgentRecipe(  # GAIL's checkpoints and snapshots of one run, and LS-IQ (all PD)
+        exports=("Atlas.walk/preference/gail_seed0_10M", "Atlas.walk/preference/gail_seed0_5.0M",
+                 "Atlas.walk/preference/gail_seed0_3.9M", "Atlas.walk/lsiq/seed0"), episodes_per_set=100),
 }
 
 

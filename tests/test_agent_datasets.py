@@ -79,8 +79,9 @@ def test_same_export_and_seed_build_a_byte_identical_file(tmp_path):
     assert digests[0] == digests[1] != digests[2]
 
 
-def test_preference_sets_are_ranked_by_return():
-    env = lm.LocoEnv.make("UnitreeH1.walk.preference")
+@pytest.mark.parametrize("name", ["UnitreeH1.walk.preference", "Atlas.walk.preference"])
+def test_preference_sets_are_ranked_by_return(name):
+    env = lm.LocoEnv.make(name)
     sets = env.dataset.metadata["sets"]
     assert len(sets) >= 4
     by_rank = sorted(sets, key=lambda s: s["rank"])
