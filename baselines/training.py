@@ -43,7 +43,7 @@ from baselines.common.batched import BatchedCollector, env_seeds
 from baselines.common.evaluation import evaluate
 from baselines.common.expert_data import ExpertData, kinematic_obs_mask
 from baselines.common.logger import CSVLogger
-from baselines.common.machine import MACHINES, read_machines, record_machine
+from baselines.common.machine import MACHINES, record_machine
 from baselines.config import RunConfig
 from loco_mujoco.evaluation.protocol import evaluation_env
 from loco_mujoco.evaluation.references import references
@@ -220,7 +220,6 @@ class Trainer:
         self.eval_env = evaluation_env(run.task, run.env, seed=run.train.eval_seed)  # the real task's starts
         self.out_dir.mkdir(parents=True, exist_ok=True)  # only now: a start that fails leaves nothing behind
         self.epoch, self.steps, self.wall_s = 0, 0, 0.0
-        self._source_machines = None  # a warm start's source rows of machines.csv, written with the first train()
         if state is not None:
             self._restore(state)
             _truncate_csv(self.out_dir / "progress.csv", self.steps)
@@ -241,8 +240,7 @@ class Trainer:
         self._bar = tqdm(total=run.train.n_steps, initial=self.steps, unit="step", dynamic_ncols=True,
                          disable=not self.progress, desc=f"{run.algorithm} {run.task}")
         self._live_steps = self.steps
-        record_machine(self.out_dir, self.steps, torch.get_num_threads(), previous=self._source_machines)
-        self._source_machines = None
+        record_machine(self.out_dir, self.steps, torch.get_num_threads())
         try:
             while self.steps < run.train.n_steps:
                 n = min(run.train.epoch_steps, run.train.n_steps - self.steps)
@@ -260,8 +258,8 @@ class Trainer:
                 self.logger.log(self.steps, epoch=self.epoch, **last_eval, train_steps_per_s=n / train_s,
                                 **{k: v for k, v in stats.items() if k != "fit"})
                 self.save()
-                if run.train.snapshot_every and self.steps // run.train.snapshot_every > (self.steps - n) // \
-                        run.train.snapshot_every:
+                every = run.train.snapshot_every
+                if every and self.steps // every > (self.steps - n) // every:  # this epoch passed a multiple
                     self.snapshot(last_eval)
                 line = self.on_evaluation(self.steps, last_eval) if self.on_evaluation is not None else None
                 if line:
@@ -336,7 +334,7 @@ class Trainer:
         (``training_evaluation``: the run's own deterministic episodes, not the protocol's)."""
         from baselines.export import export_agent, run_card
 
-        card = run_card(self.run, self.steps, source_run=str(self.out_dir.as_posix()), epoch=self.epoch,
+        card = run_card(self.run, self.steps, source_run=self.out_dir.as_posix(), epoch=self.epoch,
                         training_evaluation={k: float(v) for k, v in figures.items()})
         return export_agent(self.agent, self.out_dir / SNAPSHOTS / str(self.steps), card, self.run.to_dict(),
                             overwrite=True)
@@ -367,7 +365,8 @@ class Trainer:
         if source_log.exists():  # the source's curve up to the checkpoint, so the whole history stays together
             shutil.copy(source_log, self.out_dir / INIT_FROM_PROGRESS)
             _truncate_csv(self.out_dir / INIT_FROM_PROGRESS, self.steps)
-        self._source_machines = read_machines(source_log.parent)
+        if (source_log.parent / MACHINES).exists():  # and its machines (train() drops rows past the loaded step)
+            shutil.copy(source_log.parent / MACHINES, self.out_dir / MACHINES)
 
     def _restore(self, state: dict[str, Any]) -> None:
         self.agent.load_state_dict(state["agent"])

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from baselines.common.machine import machine_summary, read_machines
+from baselines.common.machine import read_machines
 from loco_mujoco.core.task_names import parse_task_name
 
 # Per-episode imitation metrics pooled over seeds (key in the evaluation file's "metrics"), and per-evaluation ones
@@ -182,6 +182,23 @@ def _run_hours(run_dir: Path, config: dict[str, Any], steps: int) -> float | Non
     before = training_hours(read_progress(source), init_steps)
     after = training_hours(rows, steps, start=init_steps)
     return None if before is None or after is None else before + after
+
+
+def machine_summary(rows: list[dict[str, str]], end_step: int) -> str | None:
+    """The machines of ``machines.csv`` ``rows`` that trained the run up to ``end_step``: one name, or each with
+    its steps when several did (``Intel Xeon (16 CPUs) 0-1.0M + AMD EPYC (2 CPUs) 1.0M-20.0M``); None without rows."""
+    rows = [r for r in rows if int(r["step"]) < end_step] or rows[:1]
+    if not rows:
+        return None
+    stretches: list[tuple[str, int]] = []  # (machine, first step); consecutive rows on one machine are one stretch
+    for r in rows:
+        if not stretches or stretches[-1][0] != r["machine"]:
+            stretches.append((r["machine"], int(r["step"])))
+    if len(stretches) == 1:
+        return stretches[0][0]
+    ends = [start for _, start in stretches[1:]] + [end_step]
+    return " + ".join(f"{m} {format_steps(start)}-{format_steps(end)}"
+                      for (m, start), end in zip(stretches, ends, strict=True))
 
 
 def _machine(run_dir: Path, config: dict[str, Any], steps: int) -> str | None:

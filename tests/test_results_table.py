@@ -128,6 +128,17 @@ def test_perfect_data_superseded_seeds_and_runs_without_evaluation(dirs):
     assert "In all: 3 runs, 0.2 core-hours of learning." in compute_lines(list(rows.values()))
 
 
+def test_machine_summary_names_each_machines_stretch():
+    from experiments.table_sources import machine_summary
+
+    one = [{"step": "0", "machine": "EPYC (2 CPUs)"}, {"step": "400", "machine": "EPYC (2 CPUs)"}]
+    assert machine_summary(one, 800) == "EPYC (2 CPUs)" and machine_summary([], 800) is None
+    lent = [{"step": "0", "machine": "Xeon (16 CPUs)"}, {"step": "1000000", "machine": "Xeon (16 CPUs)"},
+            {"step": "5000000", "machine": "EPYC (2 CPUs)"}, {"step": "19000000", "machine": "EPYC (2 CPUs)"}]
+    assert machine_summary(lent, 20_000_000) == "Xeon (16 CPUs) 0-5.0M + EPYC (2 CPUs) 5.0M-20.0M"
+    assert machine_summary(lent, 5_000_000) == "Xeon (16 CPUs)"  # the stretch from 5M on trained none of it
+
+
 def test_training_hours_need_a_complete_log():
     rows = [{"step": 100.0, "epoch": 1.0, "train_steps_per_s": 10.0},
             {"step": 200.0, "epoch": 2.0, "train_steps_per_s": 20.0}]

@@ -2,7 +2,7 @@
 
 The results table states its hours "on the machine kind used"; a run resumed elsewhere (a lent 16-core machine,
 then a 2-core one) has one row per stretch, each with the step it started from, so the table can say which
-machine trained which steps.
+machine trained which steps (``experiments.table_sources.machine_summary``).
 """
 
 from __future__ import annotations
@@ -50,16 +50,14 @@ def read_machines(run_dir: str | Path) -> list[dict[str, str]]:
         return list(csv.DictReader(f))
 
 
-def record_machine(run_dir: str | Path, step: int, torch_threads: int,
-                   previous: list[dict[str, str]] | None = None) -> None:
+def record_machine(run_dir: str | Path, step: int, torch_threads: int) -> None:
     """Log that training of ``run_dir`` (re)starts at ``step`` on this machine.
 
     Rows from ``step`` on are dropped first: they began stretches whose epochs were never checkpointed (a resume
-    goes back to the checkpoint). ``previous`` (a warm start's source rows) replaces the file's own rows.
+    goes back to the checkpoint; a warm start's copy of its source's file goes on from the step it loaded).
     """
     path = Path(run_dir) / MACHINES
-    rows = read_machines(run_dir) if previous is None else previous
-    rows = [r for r in rows if int(r["step"]) < step]
+    rows = [r for r in read_machines(run_dir) if int(r["step"]) < step]
     rows.append({"step": str(step), "machine": describe(), "cpus": str(usable_cpus()),
                  "torch_threads": str(torch_threads), "started": time.strftime("%Y-%m-%dT%H:%M:%S%z")})
     with path.open("w", newline="") as f:
@@ -67,22 +65,3 @@ def record_machine(run_dir: str | Path, step: int, torch_threads: int,
         writer.writeheader()
         writer.writerows(rows)
 
-
-def _steps(n: int) -> str:
-    return f"{n / 1e6:.1f}M" if n >= 1_000_000 else f"{n / 1e3:.0f}k" if n else "0"
-
-
-def machine_summary(rows: list[dict[str, str]], end_step: int) -> str | None:
-    """The machines that trained the run up to ``end_step``: one name, or each with its steps when several did
-    (``Intel Xeon (16 CPUs) 0-1.0M + AMD EPYC (2 CPUs) 1.0M-20.0M``); None without rows."""
-    rows = [r for r in rows if int(r["step"]) < end_step] or rows[:1]
-    if not rows:
-        return None
-    stretches: list[list] = []  # [machine, first step]; consecutive rows on one machine are one stretch
-    for r in rows:
-        if not stretches or stretches[-1][0] != r["machine"]:
-            stretches.append([r["machine"], int(r["step"])])
-    if len(stretches) == 1:
-        return stretches[0][0]
-    ends = [s[1] for s in stretches[1:]] + [end_step]
-    return " + ".join(f"{m} {_steps(start)}-{_steps(end)}" for (m, start), end in zip(stretches, ends, strict=True))
