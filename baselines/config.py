@@ -1,10 +1,12 @@
-"""Run configurations from YAML: shared defaults, the algorithm family's, the algorithm's, then the task's file.
+"""Run configurations from YAML: shared defaults, the algorithm family's, the algorithm's, the embodiment's, then the
+task's file.
 
 Layout (``configs/`` at the repository root)::
 
     configs/defaults.yaml            env / train sections shared by every run; ``families: {adversarial: {train,
                                      agent}, offline: {...}}`` per algorithm family; ``algorithms: {vail: {...}}``
-                                     agent defaults per algorithm
+                                     agent defaults per algorithm; ``embodiments: {Atlas: {env: {...}}}``
+                                     what every task of an embodiment (environment class) shares
     configs/<algorithm>/<task>.yaml  what this task changes for this algorithm (env / train / agent sections);
                                      ``<task>.<dataset type>`` uses the base task's file unless it has its own
 
@@ -114,6 +116,25 @@ def config_path(task: str, algorithm: str, config_dir: Path = CONFIG_DIR) -> Pat
     return Path(config_dir) / algorithm / f"{'.'.join(parts[:-1])}.yaml"
 
 
+def _embodiment_layer(embodiments: dict[str, Any], env: str, defaults_file: Path) -> dict[str, Any]:
+    """The ``embodiments: <Env>:`` section of the defaults for the environment class ``env`` ({} if it has none),
+    after checking that every embodiment named there exists and sets only known sections."""
+    from loco_mujoco.core.task_names import environment_class
+
+    _require_mapping(embodiments, defaults_file, "embodiments")
+    for name, layer in embodiments.items():
+        try:
+            environment_class(name)
+        except ValueError as err:
+            raise ConfigError(f"{defaults_file}: embodiments.{name}: {err}") from None
+        _require_mapping(layer or {}, defaults_file, f"embodiments.{name}")
+        unknown = sorted(set(layer or {}) - set(SECTIONS))
+        if unknown:
+            raise ConfigError(f"{defaults_file}: unknown sections {unknown} under embodiments.{name}; valid: "
+                              f"{', '.join(SECTIONS)}")
+    return embodiments.get(env) or {}
+
+
 def load_run_config(task: str, algorithm: str, seed: int = 0, config_dir: str | Path = CONFIG_DIR,
                     overrides: dict[str, dict[str, Any]] | None = None) -> RunConfig:
     """The merged, validated configuration of ``algorithm`` on ``task`` (``overrides`` last, same sections)."""
@@ -126,7 +147,7 @@ def load_run_config(task: str, algorithm: str, seed: int = 0, config_dir: str | 
     parsed = parse_task_name(task)  # raises with suggestions
     config_dir = Path(config_dir)
     defaults_file = config_dir / "defaults.yaml"
-    defaults = read_yaml(defaults_file, allowed=(*SECTIONS, "families", "algorithms"))
+    defaults = read_yaml(defaults_file, allowed=(*SECTIONS, "families", "algorithms", "embodiments"))
     families = defaults.pop("families", {}) or {}
     _require_mapping(families, defaults_file, "families")
     if family not in families:
@@ -144,6 +165,7 @@ def load_run_config(task: str, algorithm: str, seed: int = 0, config_dir: str | 
     if unknown:
         raise ConfigError(f"{defaults_file}: unknown algorithms {unknown} under 'algorithms'; "
                           f"valid: {', '.join(ALGORITHMS)}")
+    embodiment_config = _embodiment_layer(defaults.pop("embodiments", {}) or {}, parsed.env, defaults_file)
     task_file = config_path(task, algorithm, config_dir)
     if not task_file.exists():
         raise ConfigError(f"no config for {algorithm} on {task}: {task_file} does not exist. Every task has one "
@@ -156,7 +178,8 @@ def load_run_config(task: str, algorithm: str, seed: int = 0, config_dir: str | 
     shown_defaults, shown_task = _shown(defaults_file), _shown(task_file)
     layers = [(shown_defaults, defaults), (f"{shown_defaults} [families.{family}]", family_config),
               (f"{shown_defaults} [algorithms.{algorithm}]", {"agent": algorithm_defaults.get(algorithm) or {}}),
-              (shown_task, task_config), ("command line (--set/--steps/--threads)", overrides or {})]
+              (f"{shown_defaults} [embodiments.{parsed.env}]", embodiment_config), (shown_task, task_config),
+              ("command line (--set/--steps/--threads)", overrides or {})]
     for source, layer in layers:
         for section in SECTIONS:
             values = layer.get(section) or {}

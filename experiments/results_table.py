@@ -111,8 +111,8 @@ def plot_profile(agg: dict[str, dict[str, Any]], path: Path) -> None:
 
 # ---- outputs -----------------------------------------------------------------------------------------------------
 
-CSV_COLUMNS = ("task", "algorithm", "status", "data", "score_mean", "score_ci_low", "score_ci_high", "score_iqm",
-               "seeds", "episodes", "R_mean", "R_ci_low", "R_ci_high", "L_mean", "L_ci_low", "L_ci_high",
+CSV_COLUMNS = ("task", "algorithm", "status", "data", "control", "score_mean", "score_ci_low", "score_ci_high",
+               "score_iqm", "seeds", "episodes", "R_mean", "R_ci_low", "R_ci_high", "L_mean", "L_ci_low", "L_ci_high",
                "gait_deviation", "dtw_joints_rad", "dtw_sites_m", "classifier_auc", "steps_per_seed", "step_unit",
                "train_hours_per_seed", "machine", "random_R", "hold_pose_R", "zero_action_R", "expert_R",
                "references_dataset", "sources", "notes")
@@ -130,7 +130,7 @@ def render_csv(cells: list[Cell]) -> str:
     for c in cells:
         f, refs = c.figures, c.references or {}
         ci = {k: f.get(f"{k}_ci", (None, None)) for k in ("score", "R", "L")}
-        w.writerow([c.task, c.algorithm, c.status, c.data or "", _csv_number(f.get("score")),
+        w.writerow([c.task, c.algorithm, c.status, c.data or "", c.control, _csv_number(f.get("score")),
                     _csv_number(ci["score"][0]), _csv_number(ci["score"][1]), _csv_number(f.get("score_iqm")),
                     len(c.results) or "", f.get("episodes", ""), _csv_number(f.get("R")), _csv_number(ci["R"][0]),
                     _csv_number(ci["R"][1]), _csv_number(f.get("L")), _csv_number(ci["L"][0]), _csv_number(ci["L"][1]),
@@ -195,6 +195,10 @@ def render_markdown(cells: list[Cell], agg: dict[str, dict[str, Any]], inputs: I
         "the pretrained cards and the training logs under `results/runs/`; do not edit by hand. "
         f"{len(cells)} rows ({len(TASKS)} tasks x {len(ALGORITHMS)} algorithms), {filled} with an evaluation.",
         "",
+        "- **control**: what the agent's actions command: `pd` joint-position targets through the embodiment's PD "
+        "gains, `torque` motor torques, `muscle` muscle excitations; for a row not run yet, what its committed "
+        "config (`configs/<algo>/<task>.yaml`) asks for. The random and hold references are measured in the row's "
+        "mode, so rows of one task in different modes compare by normalised score only.",
         "- **score**: normalised (0 = uniformly random policy, 100 = expert), deterministic policy, mean with a 95% "
         "studentized-bootstrap interval over the per-episode scores of all seeds pooled (50 episodes per seed).",
         "- **R**, **L**: mean return and episode length over the same episodes.",
@@ -215,15 +219,15 @@ def render_markdown(cells: list[Cell], agg: dict[str, dict[str, Any]], inputs: I
         "for a row without an evaluation, those of the task's other evaluations where there are any "
         "(`python experiments/evaluate.py --references TASK` computes them).",
         "",
-        "| task | algorithm | score [95% CI] | seeds | R | L | gait dev. | DTW joints | DTW sites | AUC | budget | "
-        "hours | machine | random R | hold R | expert R | notes |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "| task | algorithm | control | score [95% CI] | seeds | R | L | gait dev. | DTW joints | DTW sites | AUC | "
+        "budget | hours | machine | random R | hold R | expert R | notes |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for c in cells:
         f, refs = c.figures, c.references or {}
         steps, hours = budget_text(c)
         lines.append("| " + " | ".join([
-            c.task, NAMES[c.algorithm], score_text(c), str(len(c.results)) if c.results else "-",
+            c.task, NAMES[c.algorithm], c.control, score_text(c), str(len(c.results)) if c.results else "-",
             _num(f.get("R"), 1), _num(f.get("L"), 0), _num(f.get("gait_deviation"), 2), _num(f.get("dtw_joints"), 2),
             _num(f.get("dtw_sites"), 2), _num(f.get("classifier_auc"), 3), steps, hours, _machines(c) or "-",
             _num(refs.get("random_return"), 1), _num(refs.get("hold_return"), 1), _num(refs.get("expert_return"), 1),

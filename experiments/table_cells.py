@@ -28,6 +28,7 @@ from experiments.table_sources import (
     Budget,
     SeedResult,
     TrainingRun,
+    control_mode,
     find_budget,
     format_steps,
     read_card,
@@ -107,6 +108,7 @@ class Cell:
     task: str
     algorithm: str
     status: str
+    control: str = "-"  # the control mode(s) its agents act in (or, not run, its committed config names)
     results: list[SeedResult] = field(default_factory=list)  # one per seed, pooled
     budgets: list[Budget] = field(default_factory=list)
     references: dict[str, Any] | None = None
@@ -184,6 +186,7 @@ def build_cells(inputs: Inputs, results_dir: Path, runs_dir: Path) -> list[Cell]
 def _empty(cell: Cell, runs: list[TrainingRun]) -> None:
     """A row without an evaluation: a run in progress, n/a or not run."""
     mine = [r for r in runs if r.algorithm == cell.algorithm and r.task in (cell.task, f"{cell.task}.perfect")]
+    cell.control = _modes([(r.task, r.control) for r in mine] or [(cell.task, committed_control(cell))])
     if mine:
         cell.status = NOT_EVALUATED
         cell.budgets = [r.budget for r in mine]
@@ -193,6 +196,18 @@ def _empty(cell: Cell, runs: list[TrainingRun]) -> None:
                               "no evaluation file")
     elif expert_actions_unavailable(cell.task, cell.algorithm):
         cell.status = NO_ACTIONS
+
+
+def committed_control(cell: Cell) -> str | None:
+    """The control that the committed config of the row's task and algorithm names (None: the task's default)."""
+    from baselines.config import load_run_config
+
+    return load_run_config(cell.task, cell.algorithm).env.get("control")
+
+
+def _modes(named: list[tuple[str, str | None]]) -> str:
+    """The distinct control modes of (task, control as named) pairs, sorted and joined by '/'."""
+    return "/".join(sorted({control_mode(task, control) for task, control in named}))
 
 
 def _pooled_mean(values: list[np.ndarray]) -> float | None:
@@ -212,6 +227,10 @@ def _fill(cell: Cell, results: list[SeedResult], results_dir: Path, runs_dir: Pa
                           + ", ".join(r.source for r in results if r not in kept))
         results = kept
     cell.results = results
+    cell.control = _modes([(r.task, r.control) for r in results])
+    committed = _modes([(cell.task, committed_control(cell))])
+    if cell.control != committed:
+        cell.notes.append(f"trained in {cell.control} control; the committed config now asks for {committed}")
     cell.budgets = [find_budget(r, runs_dir, results_dir) for r in results]
     if results[0].data == "perfect":
         cell.notes.insert(0, "(perfect data)")

@@ -15,6 +15,7 @@
 
 from __future__ import annotations
 
+import ast
 import csv
 import json
 import math
@@ -63,6 +64,7 @@ class SeedResult:
     evaluation_metrics: dict[str, float] = field(default_factory=dict)
     machine: str | None = None
     stem: str | None = None  # <task>_<algo>[...] of the run, to find its training log
+    control: str | None = None  # as its settings name it (None: not named, the task's default)
 
     @property
     def base_task(self) -> str:
@@ -95,6 +97,22 @@ def normalized_scores(returns: np.ndarray, refs: dict[str, Any]) -> np.ndarray:
     return 100.0 * (np.asarray(returns, dtype=float) - float(refs["random_return"])) / span
 
 
+def control_mode(task: str, control: str | None = None) -> str:
+    """The control mode an agent of ``task`` acts in where its settings name ``control`` (None: not named): that,
+    else for a ``.perfect`` or ``.preference`` task its dataset's (PD), else the embodiment's default."""
+    from loco_mujoco.core.task_names import environment_class
+    from loco_mujoco.evaluation.protocol import evaluation_task
+
+    base, kwargs = evaluation_task(task, {"control": control})
+    return kwargs.get("control") or environment_class(parse_task_name(base).env).DEFAULT_CONTROL
+
+
+def _settings_control(refs: dict[str, Any]) -> str | None:
+    """The control an evaluation's references name (their settings are ``repr``-ed values), or None."""
+    value = (refs.get("env_settings") or {}).get("control")
+    return None if value is None else ast.literal_eval(value)
+
+
 def read_evaluation(path: Path) -> SeedResult:
     """One ``evaluate.py --json`` file; its deterministic evaluation (the protocol's headline)."""
     try:
@@ -105,7 +123,7 @@ def read_evaluation(path: Path) -> SeedResult:
                             references=refs, source=f"{path.parent.name}/{path.name}",
                             scores=normalized_scores(returns, refs), returns=returns,
                             lengths=np.asarray(det["lengths"], dtype=float), machine=d.get("machine"),
-                            stem=path.name.removesuffix("_eval.json"))
+                            stem=path.name.removesuffix("_eval.json"), control=_settings_control(refs))
     except (KeyError, TypeError, ValueError) as err:
         raise ValueError(f"{path} is not an evaluation file of experiments/evaluate.py --json "
                          f"({type(err).__name__}: {err})") from None
@@ -133,6 +151,8 @@ def read_card(path: Path) -> SeedResult:
     source = d.get("source_checkpoint", "")
     if source.endswith("checkpoint.pt") and " " not in source:
         result.stem = Path(source).parent.name
+    config = read_config(path.parent)  # an export keeps its run's config beside the card
+    result.control = ((config or {}).get("env") or {}).get("control")
     return result
 
 
@@ -246,6 +266,7 @@ class TrainingRun:
     seed: int
     budget: Budget
     directory: str
+    control: str | None = None  # as its config names it (None: the task's default)
 
 
 def training_runs(runs_dir: Path) -> list[TrainingRun]:
@@ -261,5 +282,6 @@ def training_runs(runs_dir: Path) -> list[TrainingRun]:
         steps = int(rows[-1]["step"])
         budget = Budget(steps, _run_hours(run_dir, config, steps), _machine(run_dir, config, steps),
                         f"{runs_dir.name}/{run_dir.name}/progress.csv")
-        out.append(TrainingRun(config["task"], config["algorithm"], int(config["seed"]), budget, run_dir.name))
+        out.append(TrainingRun(config["task"], config["algorithm"], int(config["seed"]), budget, run_dir.name,
+                               (config.get("env") or {}).get("control")))
     return out

@@ -128,6 +128,29 @@ def test_perfect_data_superseded_seeds_and_runs_without_evaluation(dirs):
     assert "In all: 3 runs, 0.2 core-hours of learning." in compute_lines(list(rows.values()))
 
 
+def test_each_row_names_the_control_its_agents_act_in(dirs):
+    results, runs = dirs
+    write_eval(results, "Atlas.walk", "vail", 0, np.full(10, 68.0), refs={"env_settings": {"control": "'pd'"}})
+    write_eval(results, "Atlas.walk", "gail", 0, np.full(10, 68.0))  # no control named: the embodiment's default
+    write_eval(results, "UnitreeH1.walk.perfect", "sqil", 0, np.full(10, 68.0))  # the perfect data's: PD
+    run = runs / "Talos.walk_vail"
+    run.mkdir()
+    (run / "config.yaml").write_text(yaml.safe_dump({"task": "Talos.walk", "algorithm": "vail", "seed": 0,
+                                                     "env": {"control": "torque"}}))
+    (run / "progress.csv").write_text("step,epoch,train_steps_per_s\n1000,1,100\n")
+    rows, _ = table(results, runs)
+    got = {key: rows[key].control for key in [("Atlas.walk", "vail"), ("Atlas.walk", "gail"),
+                                              ("UnitreeH1.walk", "sqil"), ("Talos.walk", "vail"),
+                                              ("Talos.walk", "gaifo"), ("HumanoidMuscle.walk", "gail")]}
+    # evaluated: as evaluated; not evaluated: the run's config; not run (or n/a): the committed config (PD: the
+    # embodiments section of configs/defaults.yaml; muscles: their only mode)
+    assert got == {("Atlas.walk", "vail"): "pd", ("Atlas.walk", "gail"): "torque", ("UnitreeH1.walk", "sqil"): "pd",
+                   ("Talos.walk", "vail"): "torque", ("Talos.walk", "gaifo"): "pd",
+                   ("HumanoidMuscle.walk", "gail"): "muscle"}
+    assert "trained in torque control; the committed config now asks for pd" in rows["Atlas.walk", "gail"].notes
+    assert not any("committed config" in n for n in rows["Atlas.walk", "vail"].notes)
+
+
 def test_machine_summary_names_each_machines_stretch():
     from experiments.table_sources import machine_summary
 
@@ -177,7 +200,7 @@ def test_regeneration_is_byte_identical_and_never_overwrites_unasked(dirs, tmp_p
     md = first["table.md"].decode()
     assert md.count("\n| ") == 1 + 42 + 1 + 1 + 1 + 1  # header, 42 rows, aggregate header and row, compute
     assert "| on-policy (GAIL, VAIL, GAIfO) | 3 | 3.0M env | 0.0 | 3 |" in md  # three GAIL runs, no logs
-    assert "| Talos.walk | GAIL | **" in md and "| GAIL | 2 | 3 |" in md
+    assert "| Talos.walk | GAIL | torque | **" in md and "| GAIL | 2 | 3 |" in md  # control: the settings name none
     # refused without --force, nothing touched
     (out / "table.csv").write_text("mine")
     assert main([*args, "--out", str(out)]) == 2

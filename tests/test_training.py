@@ -85,6 +85,39 @@ def test_config_layers_merge_in_order(tmp_path):
     assert bc.train.epoch_steps == 100 and not hasattr(bc.agent, "max_kl")
 
 
+def test_embodiment_layer_sits_between_the_algorithm_and_the_task_file(tmp_path):
+    (tmp_path / "vail").mkdir()
+    (tmp_path / "defaults.yaml").write_text(yaml.safe_dump({
+        "train": {"n_steps": 1000, "epoch_steps": 500},
+        "families": {"adversarial": {"train": {"n_steps_per_fit": 250}}},
+        "algorithms": {"vail": {"latent_dim": 16}},
+        "embodiments": {"Talos": {"env": {"control": "pd"}, "agent": {"latent_dim": 12}}}}))
+    for task in ("Talos.walk", "Talos.carry", "Atlas.walk"):
+        (tmp_path / "vail" / f"{task}.yaml").write_text("# nothing particular\n")
+    walk = load_run_config("Talos.walk", "vail", config_dir=tmp_path)
+    assert (walk.env, walk.agent.latent_dim) == ({"control": "pd"}, 12)  # over the algorithm's defaults
+    assert walk.provenance["env.control"].endswith("[embodiments.Talos]")
+    assert load_run_config("Talos.carry", "vail", config_dir=tmp_path).env == {"control": "pd"}  # every task of it
+    assert load_run_config("Atlas.walk", "vail", config_dir=tmp_path).env == {}  # other embodiments untouched
+    (tmp_path / "vail" / "Talos.walk.yaml").write_text(yaml.safe_dump({"env": {"control": "torque"}}))
+    assert load_run_config("Talos.walk", "vail", config_dir=tmp_path).env == {"control": "torque"}  # the task wins
+    for bad, match in [({"Tallos": {}}, r"embodiments.Tallos: .*Talos"),
+                       ({"Talos": {"agnet": {}}}, r"unknown sections \['agnet'\] under embodiments.Talos")]:
+        (tmp_path / "defaults.yaml").write_text(yaml.safe_dump({"train": {"n_steps": 1000},
+                                                                 "families": {"adversarial": {}},
+                                                                 "embodiments": bad}))
+        with pytest.raises(ConfigError, match=match):
+            load_run_config("Talos.walk", "vail", config_dir=tmp_path)
+
+
+def test_a_tasks_committed_configs_share_one_control_mode():
+    """Rows of one task in results/table.md differ by algorithm only: PD on every motor-driven humanoid."""
+    for task, control in [("UnitreeH1.walk", "pd"), ("Talos.walk", "pd"), ("Atlas.walk", "pd"),
+                          ("HumanoidTorque.walk", "pd"), ("HumanoidTorque4Ages.walk.all", "pd"),
+                          ("UnitreeA1.simple", None), ("HumanoidMuscle.walk", None)]:  # None: their default
+        assert {load_run_config(task, algo).env.get("control") for algo in ALGORITHMS} == {control}, task
+
+
 @pytest.mark.parametrize("layer, match", [
     ({"agent": {"max_kll": 0.01}}, r"unknown VAILConfig keys \['max_kll'\]"),
     ({"agent": {"std_0": "wide"}}, r"std_0 must be float"),
