@@ -127,11 +127,7 @@ def _embodiment_layer(embodiments: dict[str, Any], env: str, defaults_file: Path
             environment_class(name)
         except ValueError as err:
             raise ConfigError(f"{defaults_file}: embodiments.{name}: {err}") from None
-        _require_mapping(layer or {}, defaults_file, f"embodiments.{name}")
-        unknown = sorted(set(layer or {}) - set(SECTIONS))
-        if unknown:
-            raise ConfigError(f"{defaults_file}: unknown sections {unknown} under embodiments.{name}; valid: "
-                              f"{', '.join(SECTIONS)}")
+        _require_sections(layer or {}, defaults_file, f"embodiments.{name}")
     return embodiments.get(env) or {}
 
 
@@ -154,11 +150,7 @@ def load_run_config(task: str, algorithm: str, seed: int = 0, config_dir: str | 
         raise ConfigError(f"{defaults_file}: no 'families: {family}:' section for {algorithm}; "
                           f"families there: {', '.join(families) or 'none'}")
     family_config = families[family] or {}
-    _require_mapping(family_config, defaults_file, f"families.{family}")
-    unknown = sorted(set(family_config) - set(SECTIONS))
-    if unknown:
-        raise ConfigError(f"{defaults_file}: unknown sections {unknown} under families.{family}; valid: "
-                          f"{', '.join(SECTIONS)}")
+    _require_sections(family_config, defaults_file, f"families.{family}")
     algorithm_defaults = defaults.pop("algorithms", {}) or {}
     _require_mapping(algorithm_defaults, defaults_file, "algorithms")
     unknown = sorted(set(algorithm_defaults) - set(ALGORITHMS))
@@ -273,6 +265,14 @@ def read_yaml(path: Path, allowed: tuple[str, ...]) -> dict[str, Any]:
 def _require_mapping(value: Any, source: Any, where: str) -> None:
     if not isinstance(value, dict):
         raise ConfigError(f"{source}: {where} must be a mapping of key: value, got {type(value).__name__} {value!r}")
+
+
+def _require_sections(value: Any, source: Any, where: str) -> None:
+    """A mapping of config sections (env / train / agent) and nothing else."""
+    _require_mapping(value, source, where)
+    unknown = sorted(set(value) - set(SECTIONS))
+    if unknown:
+        raise ConfigError(f"{source}: unknown sections {unknown} under {where}; valid: {', '.join(SECTIONS)}")
 
 
 def _dataclass_from_dict(cls: type, values: dict[str, Any], section: str, source: Path) -> Any:

@@ -197,7 +197,7 @@ def render_markdown(cells: list[Cell], agg: dict[str, dict[str, Any]], inputs: I
         "",
         "- **control**: what the agent's actions command: `pd` joint-position targets through the embodiment's PD "
         "gains, `torque` motor torques, `muscle` muscle excitations; for a row not run yet, what its committed "
-        "config (`configs/<algo>/<task>.yaml`) asks for. The random and hold references are measured in the row's "
+        "config asks for (`launch.py --print-config`). The random and hold references are measured in the row's "
         "mode, so rows of one task in different modes compare by normalised score only.",
         "- **score**: normalised (0 = uniformly random policy, 100 = expert), deterministic policy, mean with a 95% "
         "studentized-bootstrap interval over the per-episode scores of all seeds pooled (50 episodes per seed).",
