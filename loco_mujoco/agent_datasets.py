@@ -63,6 +63,9 @@ AGENT_RECIPES: dict[str, AgentRecipe] = {
     "Atlas.walk.preference": AgentRecipe(  # GAIL's checkpoints and snapshots of one run, and LS-IQ (all PD)
         exports=("Atlas.walk/preference/gail_seed0_10M", "Atlas.walk/preference/gail_seed0_5.0M",
                  "Atlas.walk/preference/gail_seed0_3.9M", "Atlas.walk/lsiq/seed0"), episodes_per_set=100),
+    "Talos.walk.preference": AgentRecipe(  # VAIL, GAIL and its 15M snapshot, LS-IQ, BC (all PD)
+        exports=("Talos.walk/vail/seed0", "Talos.walk/gail/seed0", "Talos.walk/preference/gail_seed0_15M",
+                 "Talos.walk/lsiq/seed0", "Talos.walk/bc/seed0"), episodes_per_set=100),
 }
 
 

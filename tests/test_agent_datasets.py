@@ -79,7 +79,7 @@ def test_same_export_and_seed_build_a_byte_identical_file(tmp_path):
     assert digests[0] == digests[1] != digests[2]
 
 
-@pytest.mark.parametrize("name", ["UnitreeH1.walk.preference", "Atlas.walk.preference"])
+@pytest.mark.parametrize("name", ["UnitreeH1.walk.preference", "Atlas.walk.preference", "Talos.walk.preference"])
 def test_preference_sets_are_ranked_by_return(name):
     env = lm.LocoEnv.make(name)
     sets = env.dataset.metadata["sets"]
@@ -98,7 +98,7 @@ def test_settings_travel_with_the_data_and_conflicts_raise():
         lm.LocoEnv.make("UnitreeH1.walk.perfect", control="torque")
     assert lm.LocoEnv.make("UnitreeH1.walk.perfect", control="pd").control == "pd"
     with pytest.raises(ValueError, match="Dataset types with data for it: real"):
-        lm.LocoEnv.make("Talos.walk.preference")
+        lm.LocoEnv.make("UnitreeA1.simple.preference")
 
 
 def test_a_build_that_differs_from_the_committed_one_warns(tmp_path, monkeypatch):
