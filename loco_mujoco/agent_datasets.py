@@ -60,9 +60,10 @@ AGENT_RECIPES: dict[str, AgentRecipe] = {
     "UnitreeH1.walk.preference": AgentRecipe(
         exports=("UnitreeH1.walk/vail/seed0", "UnitreeH1.walk/preference/vail_seed0_21.7M",
                  "UnitreeH1.walk/preference/vail_seed0_4.4M", "UnitreeH1.walk/gaifo/seed0"), episodes_per_set=100),
-    "Atlas.walk.preference": AgentRecipe(  # GAIL's checkpoints and snapshots of one run, and LS-IQ (all PD)
-        exports=("Atlas.walk/preference/gail_seed0_10M", "Atlas.walk/preference/gail_seed0_5.0M",
-                 "Atlas.walk/preference/gail_seed0_3.9M", "Atlas.walk/lsiq/seed0"), episodes_per_set=100),
+    "Atlas.walk.preference": AgentRecipe(  # GAIL 20M and 5.0M, GAIfO's 5M snapshot, LS-IQ, BC (all PD)
+        exports=("Atlas.walk/gail/seed0", "Atlas.walk/preference/gaifo_seed0_5M",
+                 "Atlas.walk/preference/gail_seed0_5.0M", "Atlas.walk/lsiq/seed0", "Atlas.walk/bc/seed0"),
+        episodes_per_set=100),
     "Talos.walk.preference": AgentRecipe(  # VAIL, GAIL and its 15M snapshot, LS-IQ, BC (all PD)
         exports=("Talos.walk/vail/seed0", "Talos.walk/gail/seed0", "Talos.walk/preference/gail_seed0_15M",
                  "Talos.walk/lsiq/seed0", "Talos.walk/bc/seed0"), episodes_per_set=100),
