@@ -64,6 +64,9 @@ AGENT_RECIPES: dict[str, AgentRecipe] = {
         exports=("Atlas.walk/gail/seed0", "Atlas.walk/preference/gaifo_seed0_5M",
                  "Atlas.walk/preference/gail_seed0_5.0M", "Atlas.walk/lsiq/seed0", "Atlas.walk/bc/seed0"),
         episodes_per_set=100),
+    "HumanoidTorque.walk.preference": AgentRecipe(  # VAIL 20M, GAIL 20M and its 5M snapshot, BC (all PD)
+        exports=("HumanoidTorque.walk/vail/seed0", "HumanoidTorque.walk/gail/seed0",
+                 "HumanoidTorque.walk/preference/gail_seed0_5M", "HumanoidTorque.walk/bc/seed0"), episodes_per_set=100),
     "Talos.walk.preference": AgentRecipe(  # VAIL, GAIL and its 15M snapshot, LS-IQ, BC (all PD)
         exports=("Talos.walk/vail/seed0", "Talos.walk/gail/seed0", "Talos.walk/preference/gail_seed0_15M",
                  "Talos.walk/lsiq/seed0", "Talos.walk/bc/seed0"), episodes_per_set=100),
