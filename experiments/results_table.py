@@ -218,6 +218,8 @@ def render_markdown(cells: list[Cell], agg: dict[str, dict[str, Any]], inputs: I
         "controller holding the home pose, the expert's dataset frames) that the row's scores are normalised by; "
         "for a row without an evaluation, those of the task's other evaluations where there are any "
         "(`python experiments/evaluate.py --references TASK` computes them).",
+        "- **notes**: a row whose score interval reaches 0 (not shown to beat uniformly random actions) begins with "
+        "\"did not learn\", its figures kept; then which data, evaluations and runs the row rests on.",
         "",
         "| task | algorithm | control | score [95% CI] | seeds | R | L | gait dev. | DTW joints | DTW sites | AUC | "
         "budget | hours | machine | random R | hold R | expert R | notes |",

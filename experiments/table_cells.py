@@ -9,7 +9,8 @@ base task's row, marked "(perfect data)", unless the row has an agent trained on
 says "not run", or "not evaluated" where a run directory trains it, or "n/a: no expert actions" where its
 committed config asks for derived expert actions (``train.expert_actions`` inverse_dynamics or auto, without
 ``agent.from_observations``), the task ships no ``.perfect`` dataset with actions, and inverse dynamics refuses the
-model's actuators (muscles): read from the configs and the code, not listed here.
+model's actuators (muscles): read from the configs and the code, not listed here. A filled row whose score
+interval reaches 0 (not shown to beat uniformly random actions) leads its notes with "did not learn", its figures kept.
 """
 
 from __future__ import annotations
@@ -43,6 +44,7 @@ TASKS = ("UnitreeH1.walk", "Talos.walk", "Atlas.walk", "UnitreeA1.simple", "Huma
          "HumanoidMuscle.walk")
 ALGORITHMS = ("gail", "vail", "gaifo", "iq_learn", "lsiq", "sqil", "bc")
 OK, NOT_RUN, NOT_EVALUATED, NO_ACTIONS = "ok", "not run", "not evaluated", "n/a: no expert actions"
+DID_NOT_LEARN = "did not learn: its score's 95% interval reaches 0 (uniformly random actions)"
 NAMES = {"gail": "GAIL", "vail": "VAIL", "gaifo": "GAIfO", "iq_learn": "IQ-Learn", "lsiq": "LS-IQ", "sqil": "SQIL",
          "bc": "BC"}
 
@@ -177,10 +179,18 @@ def build_cells(inputs: Inputs, results_dir: Path, runs_dir: Path) -> list[Cell]
                                   + ", ".join(r.source for r in found if r.data != "real"))
             if chosen:
                 _fill(cell, _one_per_seed(chosen, cell.notes), results_dir, runs_dir, refs_of_task.get(task))
+                if did_not_learn(cell):
+                    cell.notes.insert(0, DID_NOT_LEARN)
             else:
                 _empty(cell, inputs.runs)
             cells.append(cell)
     return cells
+
+
+def did_not_learn(cell: Cell) -> bool:
+    """Whether a filled row is not shown to beat uniformly random actions: its score interval's lower end <= 0."""
+    lo = cell.figures.get("score_ci", (math.nan,))[0]
+    return cell.status == OK and (lo is None or not math.isfinite(lo) or lo <= 0.0)
 
 
 def _empty(cell: Cell, runs: list[TrainingRun]) -> None:

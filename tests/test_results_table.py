@@ -9,7 +9,16 @@ import pytest
 import yaml
 
 from experiments.results_table import OUTPUTS, main
-from experiments.table_cells import ALGORITHMS, NO_ACTIONS, NOT_EVALUATED, NOT_RUN, TASKS, build_cells, collect
+from experiments.table_cells import (
+    ALGORITHMS,
+    DID_NOT_LEARN,
+    NO_ACTIONS,
+    NOT_EVALUATED,
+    NOT_RUN,
+    TASKS,
+    build_cells,
+    collect,
+)
 from experiments.table_sources import training_hours
 from loco_mujoco.evaluation.aggregate import aggregate_iqm, performance_profile
 from loco_mujoco.evaluation.intervals import iqm
@@ -94,6 +103,22 @@ def test_two_seeds_are_pooled_episode_by_episode(dirs):
     assert f["score"] == pytest.approx((50 * 10.0 + 30 * 50.0) / 80)
     assert f["score_ci"][0] < f["score"] < f["score_ci"][1]
     assert f["classifier_auc"] == pytest.approx(0.85)  # per-evaluation metric: the mean over seeds
+
+
+def test_a_row_not_beating_random_actions_says_did_not_learn(dirs):
+    results, runs = dirs
+    rng = np.random.default_rng(1)
+    write_eval(results, "Talos.walk", "lsiq", 0, rng.normal(21.0, 5.0, 50))  # score ~0.2: interval reaches 0
+    write_eval(results, "Talos.walk", "bc", 0, np.full(50, 10.0))  # below random: score -2.1
+    write_eval(results, "Talos.walk", "vail", 0, rng.normal(68.0, 5.0, 50))  # score ~10
+    rows, _ = table(results, runs)
+    for algo in ("lsiq", "bc"):
+        cell = rows["Talos.walk", algo]
+        assert cell.figures["score_ci"][0] <= 0.0 and cell.notes[0] == DID_NOT_LEARN
+    assert rows["Talos.walk", "bc"].figures["score"] == pytest.approx(-100.0 * 10.0 / 480.0)  # figures kept
+    assert rows["Talos.walk", "vail"].figures["score_ci"][0] > 0.0
+    assert DID_NOT_LEARN not in rows["Talos.walk", "vail"].notes
+    assert all(DID_NOT_LEARN not in c.notes for c in rows.values() if c.status != "ok")
 
 
 def test_perfect_data_superseded_seeds_and_runs_without_evaluation(dirs):
