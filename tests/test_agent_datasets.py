@@ -11,30 +11,39 @@ import loco_mujoco as lm
 from loco_mujoco import agent_datasets
 from loco_mujoco.policy_export import MAX_BYTES, ExportError, PolicyExport
 
-# An unfinished run keeps its checkpoint in git (finished ones keep only their export): GAIfO, 4.1M of 20M steps.
-GAIFO_CHECKPOINT = "results/runs/UnitreeH1.walk_gaifo/checkpoint.pt"
+# A tiny GAIfO run trained here (finished runs keep only their export in git, so no checkpoint is relied on).
+TINY_GAIFO = {"env": {"horizon": 100},
+              "train": {"n_steps": 400, "epoch_steps": 400, "n_eval_episodes": 1, "n_steps_per_fit": 200},
+              "agent": {"n_threads": 1, "policy_hidden": [32], "critic_hidden": [32], "disc_hidden": [32],
+                        "disc_batch_size": 128, "train_disc_every": 1}}
 GAIFO_EXPORT = agent_datasets.pretrained_root() / "UnitreeH1.walk/gaifo/seed0"
 VAIL_EXPORT = agent_datasets.pretrained_root() / "UnitreeH1.walk/vail/seed0"
 
 
 def test_export_acts_exactly_like_its_checkpoint(tmp_path):
+    from baselines.config import load_run_config
     from baselines.export import export_checkpoint
-    from baselines.training import build, load_checkpoint, make_env, run_config_from_checkpoint
+    from baselines.training import Trainer, build, load_checkpoint, make_env, run_config_from_checkpoint
 
-    path = export_checkpoint(GAIFO_CHECKPOINT, tmp_path / "export", evaluation={"note": "test"})
+    Trainer(load_run_config("UnitreeH1.walk", "gaifo", seed=3, overrides=TINY_GAIFO), tmp_path / "run",
+            progress=False).train()
+    checkpoint = tmp_path / "run" / "checkpoint.pt"
+    path = export_checkpoint(checkpoint, tmp_path / "export", evaluation={"note": "test"})
     assert sum(f.stat().st_size for f in path.iterdir()) < MAX_BYTES
     export = PolicyExport.load(path)
     assert export.task == "UnitreeH1.walk" and export.env_kwargs["control"] == "pd"
-    assert export.card["algorithm"] == "gaifo" and export.card["steps"] == 4_100_000
-    state = load_checkpoint(GAIFO_CHECKPOINT)
+    assert export.card["algorithm"] == "gaifo" and export.card["steps"] == 400 and export.card["seed"] == 3
+    state = load_checkpoint(checkpoint)
     run = run_config_from_checkpoint(state)
     _, agent = build(run)
     agent.load_state_dict(state["agent"])
     obs = make_env(run, seed=0).dataset_observations()[:300]
     np.testing.assert_array_equal(export.mean_action(obs), agent.policy.mean_numpy(obs))
-    assert export.sha256 == PolicyExport.load(GAIFO_EXPORT).sha256  # the committed export is this checkpoint's
     with pytest.raises(FileExistsError, match="already holds"):
-        export_checkpoint(GAIFO_CHECKPOINT, path)
+        export_checkpoint(checkpoint, path)
+    committed = PolicyExport.load(GAIFO_EXPORT)  # the finished 20M run's export, in the same format
+    assert committed.card["algorithm"] == "gaifo" and committed.card["steps"] == 20_000_000
+    assert committed.env_kwargs == {**export.env_kwargs, "horizon": 1000} and committed.sha256 != export.sha256
     rng = np.random.default_rng(0)
     sample = export.draw_action(obs[0], rng)
     assert sample.shape == (11,) and not np.array_equal(sample, export.draw_action(obs[0]))
