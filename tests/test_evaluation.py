@@ -43,6 +43,9 @@ def test_interval_and_iqm_basics():
     assert all(math.isnan(v) for v in mean_interval(np.array([1.0])))
     degenerate = summarize(np.array([1.0, 1.0, 1.0, 2.0]))  # resamples often constant: falls back, stays finite
     assert np.all(np.isfinite(degenerate["ci95"] + degenerate["iqm_ci95"]))
+    lengths = np.r_[np.full(40, 1000.0), np.linspace(100.0, 900.0, 10)]  # most episodes reach the horizon
+    lo, hi = iqm_interval(lengths)  # BCa undefined (every resample's IQM >= the sample's): percentile interval
+    assert math.isfinite(lo) and lo <= iqm(lengths) == 1000.0 == hi
     s = summarize(x)
     assert s["n"] == 8 and s["mean"] == pytest.approx(x.mean()) and s["ci95"][0] < s["ci95"][1]
     assert summarize(x) == s  # seeded: the same interval every time

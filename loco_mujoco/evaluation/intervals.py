@@ -49,7 +49,8 @@ def _interval(values: np.ndarray, func, method: str, min_size: int, confidence: 
               **kwargs) -> tuple[float, float]:
     """``method``'s bootstrap interval of ``func(values)``: NaN bounds below ``min_size`` values, the value itself
     for constant values, and the percentile interval where ``method`` is undefined (a small sample whose
-    resamples are often constant: zero standard errors, or BCa's bias at 0 or 1)."""
+    resamples are often constant: zero standard errors, or BCa's bias at 0 or 1, as when most episodes of an
+    agent that stands reach the horizon and nearly every resample's IQM equals the sample's)."""
     from arch.bootstrap import IIDBootstrap
 
     x = _check(values)
@@ -62,7 +63,7 @@ def _interval(values: np.ndarray, func, method: str, min_size: int, confidence: 
         try:
             ci = IIDBootstrap(x, seed=np.random.default_rng(seed)).conf_int(func, reps=reps, method=method,
                                                                             size=confidence, **kwargs)
-        except RuntimeError:
+        except (RuntimeError, ValueError):  # ValueError: arch's BCa percentiles NaN (bias at 0 or 1)
             ci = np.full((2, 1), np.nan)
         if not np.all(np.isfinite(ci)):
             ci = IIDBootstrap(x, seed=np.random.default_rng(seed)).conf_int(func, reps=reps, method="percentile",
