@@ -14,6 +14,13 @@ import loco_mujoco as lm  # noqa: E402
 BASE_TASKS = [t for t in lm.list_tasks() if t.split(".")[-1] not in ("real", "perfect", "preference")
               and t.split(".")[-1] not in ("2", "3", "4")]
 
+# Config overrides for a training run small enough for a test (through the real Trainer): tiny networks, 200 steps
+# per fit, 400 per epoch, 100-step episodes.
+TINY_TRAINING = {"env": {"horizon": 100},
+                 "train": {"n_steps": 1200, "epoch_steps": 400, "n_eval_episodes": 2, "n_steps_per_fit": 200},
+                 "agent": {"n_threads": 1, "policy_hidden": [32], "critic_hidden": [32],
+                           "disc_hidden": [32], "disc_batch_size": 128, "train_disc_every": 1}}
+
 
 @pytest.fixture(scope="session")
 def make_env():

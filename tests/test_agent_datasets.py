@@ -6,16 +6,14 @@ import warnings
 
 import numpy as np
 import pytest
+from conftest import TINY_TRAINING
 
 import loco_mujoco as lm
 from loco_mujoco import agent_datasets
 from loco_mujoco.policy_export import MAX_BYTES, ExportError, PolicyExport
 
 # A tiny GAIfO run trained here (finished runs keep only their export in git, so no checkpoint is relied on).
-TINY_GAIFO = {"env": {"horizon": 100},
-              "train": {"n_steps": 400, "epoch_steps": 400, "n_eval_episodes": 1, "n_steps_per_fit": 200},
-              "agent": {"n_threads": 1, "policy_hidden": [32], "critic_hidden": [32], "disc_hidden": [32],
-                        "disc_batch_size": 128, "train_disc_every": 1}}
+TINY_GAIFO = {**TINY_TRAINING, "train": {**TINY_TRAINING["train"], "n_steps": 400, "n_eval_episodes": 1}}
 GAIFO_EXPORT = agent_datasets.pretrained_root() / "UnitreeH1.walk/gaifo/seed0"
 VAIL_EXPORT = agent_datasets.pretrained_root() / "UnitreeH1.walk/vail/seed0"
 

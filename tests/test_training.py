@@ -16,6 +16,8 @@ import loco_mujoco as lm
 from loco_mujoco.policy_export import PolicyExport
 
 # isort: split
+from conftest import TINY_TRAINING  # noqa: E402
+
 from baselines import ALGORITHMS  # noqa: E402
 from baselines.common.inverse_dynamics import (  # noqa: E402
     controls_from_inverse,
@@ -31,11 +33,6 @@ from loco_mujoco.core.task_names import DATASET_TYPES, list_tasks  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
 BASE_TASKS = [t for t in list_tasks() if t.split(".")[-1] not in DATASET_TYPES]
-# A run small enough for a test: tiny networks, 200 steps per fit, 400 per epoch, short evaluation episodes.
-TINY = {"env": {"horizon": 100},
-        "train": {"n_steps": 1200, "epoch_steps": 400, "n_eval_episodes": 2, "n_steps_per_fit": 200},
-        "agent": {"n_threads": 1, "policy_hidden": [32], "critic_hidden": [32],
-                  "disc_hidden": [32], "disc_batch_size": 128, "train_disc_every": 1}}
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -165,7 +162,7 @@ def test_command_line_overrides_are_parsed_and_validated():
 
 # ---- the training loop ---------------------------------------------------------------------------------
 def tiny_run(algorithm="vail", n_steps=1200):
-    overrides = {k: dict(v) for k, v in TINY.items()}
+    overrides = {k: dict(v) for k, v in TINY_TRAINING.items()}
     overrides["train"]["n_steps"] = n_steps
     return load_run_config("UnitreeH1.walk", algorithm, seed=7, overrides=overrides)
 
@@ -300,7 +297,7 @@ def test_launch_and_evaluate_scripts(tmp_path):
     config_dir = tmp_path / "configs"
     (config_dir / "gaifo").mkdir(parents=True)
     shutil.copy(CONFIG_DIR / "defaults.yaml", config_dir / "defaults.yaml")
-    (config_dir / "gaifo" / "UnitreeH1.walk.yaml").write_text(yaml.safe_dump(TINY))
+    (config_dir / "gaifo" / "UnitreeH1.walk.yaml").write_text(yaml.safe_dump(TINY_TRAINING))
     out = tmp_path / "run"
     launch = [sys.executable, str(REPO / "experiments" / "launch.py"), "--env", "UnitreeH1.walk", "--algo", "gaifo",
               "--steps", "400", "--out", str(out), "--config-dir", str(config_dir), "--quiet"]
