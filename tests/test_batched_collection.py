@@ -10,7 +10,8 @@ import torch
 import loco_mujoco as lm
 
 # isort: split
-from test_training import TINY, assert_identical, progress_rows, tiny_run  # noqa: E402
+from conftest import TINY_TRAINING  # noqa: E402
+from test_training import assert_identical, progress_rows, tiny_run  # noqa: E402
 
 from baselines.common.batched import BatchedCollector, EnvThreadPool, env_seeds  # noqa: E402
 from baselines.common.fast_trpo import dataset_to_arrays  # noqa: E402
@@ -150,7 +151,7 @@ def test_thread_pool_runs_every_item_once_and_reraises():
 
 
 def test_n_envs_is_validated():
-    overrides = {k: dict(v) for k, v in TINY.items()}
+    overrides = {k: dict(v) for k, v in TINY_TRAINING.items()}
     for bad, match in [({"n_envs": 0}, "n_envs must be >= 1"), ({"n_envs": 3}, "multiple of train.n_envs"),
                        ({"env_threads": -1}, "env_threads must be >= 0")]:
         with pytest.raises(ConfigError, match=match):
