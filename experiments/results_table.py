@@ -200,7 +200,8 @@ def render_markdown(cells: list[Cell], agg: dict[str, dict[str, Any]], inputs: I
         "config asks for (`launch.py --print-config`). The random and hold references are measured in the row's "
         "mode, so rows of one task in different modes compare by normalised score only.",
         "- **score**: normalised (0 = uniformly random policy, 100 = expert), deterministic policy, mean with a 95% "
-        "studentized-bootstrap interval over the per-episode scores of all seeds pooled (50 episodes per seed).",
+        "studentized-bootstrap interval over the per-episode scores of all seeds pooled (50 episodes per seed); "
+        "BCa where 60% or more of the values tie, as episode lengths at the horizon do.",
         "- **R**, **L**: mean return and episode length over the same episodes.",
         "- **gait dev.**: the mean relative deviation of eight gait metrics from the expert's over the same frames "
         "(each capped at 1; 0 = the expert's gait); **DTW joints** (rad) and **DTW sites** (m, pelvis height and "

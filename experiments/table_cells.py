@@ -1,8 +1,9 @@
 """The rows of the results table: the planned grid, which results fill each row, and the aggregates over tasks.
 
 A row pools the per-episode normalised scores of all its training seeds (deterministic policy) and gives their
-mean with the repository's studentized-bootstrap 95% interval (:func:`loco_mujoco.evaluation.intervals.mean_interval`,
-seeded as ``evaluate.py`` seeds it, so a one-seed row repeats its evaluation file's intervals). One evaluation per
+mean with the repository's studentized-bootstrap 95% interval (BCa where most values tie;
+:func:`loco_mujoco.evaluation.intervals.mean_interval`, seeded as ``evaluate.py`` seeds it, so a one-seed row repeats
+its evaluation file's intervals). One evaluation per
 seed: where a seed has several (a run and its warm-started continuation), the one with the most training steps,
 the others named in the notes. An agent trained on ``<task>.perfect`` data (evaluated on the real task) fills its
 base task's row, marked "(perfect data)", unless the row has an agent trained on the real data. A row without any
