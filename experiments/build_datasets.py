@@ -5,6 +5,7 @@
     python experiments/build_datasets.py --task UnitreeH1.walk --rebuild
     python experiments/build_datasets.py --task HumanoidTorque4Ages.walk.2
     python experiments/build_datasets.py --export-minari UnitreeH1.walk.perfect [--minari-id ID] [--overwrite]
+    python experiments/build_datasets.py --record UnitreeA1.simple.preference   # after changing a recipe
     python experiments/build_datasets.py --clip ../shared/mocap/cmu/07_02.bvh --robot UnitreeH1   # any clip
 
 The quadruped tasks' permissive datasets are rollouts of our trotting controller (loco_mujoco/controllers);
@@ -15,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 
 from loco_mujoco.controllers.datasets import load_real_dataset
 from loco_mujoco.core.task_names import environment_class, list_tasks, parse_task_name
@@ -63,11 +65,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--robot", metavar="NAME", help="the embodiment for --clip, e.g. UnitreeH1")
     parser.add_argument("--no-foot-lock", action="store_true", help="--clip: the joint mapping alone, no IK")
     parser.add_argument("--jobs", type=int, default=2, help="datasets built in parallel processes (default 2)")
+    parser.add_argument("--record", metavar="NAME", help="rebuild shipped agent dataset NAME (e.g. "
+                        "UnitreeA1.simple.preference) and write its build record: the file's sha256 and "
+                        "its exports' (pretrained/<task>/datasets/<type>.sha256)")
     args = parser.parse_args(argv)
     if args.jobs < 1:
         parser.error(f"--jobs must be at least 1, got {args.jobs}")
     if args.export_minari is None and (args.minari_id is not None or args.overwrite):
         parser.error("--minari-id and --overwrite go with --export-minari TASK")
+    if args.record is not None:
+        return record_agent_dataset(args.record)
     if args.export_minari is not None:
         if args.list or args.task or args.rebuild:
             parser.error("--export-minari does not combine with --list, --task or --rebuild")
@@ -175,6 +182,21 @@ def export_minari_dataset(task: str, dataset_id: str | None, overwrite: bool) ->
     dataset = minari.load_dataset(dataset_id)
     print(f"{dataset_id}: {dataset.total_episodes} episodes, {dataset.total_steps:,} transitions, "
           f"at {get_dataset_path(dataset_id)}")
+    return 0
+
+
+def record_agent_dataset(name: str) -> int:
+    """Rebuild shipped agent dataset ``name`` and write its build record (for the recipe's author)."""
+    from loco_mujoco.agent_datasets import AGENT_RECIPES, agent_dataset_path, record_build
+
+    if name not in AGENT_RECIPES:
+        raise SystemExit(f"error: no shipped agent dataset {name!r}; shipped: {', '.join(AGENT_RECIPES)}")
+    with warnings.catch_warnings():  # the old record is being replaced: its mismatch is expected
+        warnings.simplefilter("ignore")
+        path = agent_dataset_path(name, rebuild=True)
+    record = record_build(name, path)
+    print(f"{name}: {path} -> {record}")
+    print(record.read_text(), end="")
     return 0
 
 

@@ -11,9 +11,10 @@ the observations, the actions exactly as passed to ``env.step`` (clipped to [-1,
 last frame) and absorbing flags. The same exports and seed give a byte-identical file on one machine.
 
 Shipped datasets are built from committed exports (``pretrained/``) into the cache on first use; the sha256
-of the file as built on the machine that made the recipe is committed beside the exports, and a build that
-differs (another CPU) says so in a warning. This module sits above the environments: the datasets layer
-(``loco_mujoco/datasets``) never imports it.
+of the file as built on the machine that made the recipe is committed beside the exports with the weights
+sha256 of each export it used, and a build that differs (another CPU, or an export replaced since) says so in a
+warning naming the cause; a test keeps every recipe's exports equal to the recorded ones. This module sits
+above the environments: the datasets layer (``loco_mujoco/datasets``) never imports it.
 """
 
 from __future__ import annotations
@@ -59,7 +60,8 @@ AGENT_RECIPES: dict[str, AgentRecipe] = {
     "UnitreeH1.walk.perfect": AgentRecipe(exports=("UnitreeH1.walk/vail/seed0",), min_transitions=50_000),
     "UnitreeH1.walk.preference": AgentRecipe(
         exports=("UnitreeH1.walk/vail/seed0", "UnitreeH1.walk/preference/vail_seed0_21.7M",
-                 "UnitreeH1.walk/preference/vail_seed0_4.4M", "UnitreeH1.walk/gaifo/seed0"), episodes_per_set=100),
+                 "UnitreeH1.walk/preference/vail_seed0_4.4M", "UnitreeH1.walk/preference/gaifo_seed0_4.1M"),
+        episodes_per_set=100),  # GAIfO's 4.1M export (the table's row went on to 20M)
     "Atlas.walk.preference": AgentRecipe(  # GAIL 20M and 5.0M, GAIfO's 5M snapshot, LS-IQ, BC (all PD)
         exports=("Atlas.walk/gail/seed0", "Atlas.walk/preference/gaifo_seed0_5M",
                  "Atlas.walk/preference/gail_seed0_5.0M", "Atlas.walk/lsiq/seed0", "Atlas.walk/bc/seed0"),
@@ -67,6 +69,9 @@ AGENT_RECIPES: dict[str, AgentRecipe] = {
     "HumanoidTorque.walk.preference": AgentRecipe(  # VAIL 20M, GAIL 20M and its 5M snapshot, BC (all PD)
         exports=("HumanoidTorque.walk/vail/seed0", "HumanoidTorque.walk/gail/seed0",
                  "HumanoidTorque.walk/preference/gail_seed0_5M", "HumanoidTorque.walk/bc/seed0"), episodes_per_set=100),
+    "UnitreeA1.simple.preference": AgentRecipe(  # GAIL 20M and its 10M snapshot, VAIL 20M, BC (all PD); 40 episodes
+        exports=("UnitreeA1.simple/gail/seed0", "UnitreeA1.simple/preference/gail_seed0_10M",  # of up to 1,000 steps
+                 "UnitreeA1.simple/vail/seed0", "UnitreeA1.simple/bc/seed0"), episodes_per_set=40),
     "Talos.walk.preference": AgentRecipe(  # VAIL, GAIL and its 15M snapshot, LS-IQ, BC (all PD)
         exports=("Talos.walk/vail/seed0", "Talos.walk/gail/seed0", "Talos.walk/preference/gail_seed0_15M",
                  "Talos.walk/lsiq/seed0", "Talos.walk/bc/seed0"), episodes_per_set=100),
@@ -252,9 +257,39 @@ def _recipe_key(name: str, recipe: AgentRecipe) -> str:
 
 
 def sha256_file(name: str) -> Path:
-    """Where the sha256 of shipped dataset ``name`` as built by its author is committed."""
+    """Where the build record of shipped dataset ``name`` is committed: the file's sha256 as its author built it
+    (first line), then the weights sha256 of every export it was built from (``<sha256>  export <folder>``)."""
     task, kind = name.rsplit(".", 1)
     return pretrained_root() / task / "datasets" / f"{kind}.sha256"
+
+
+def recorded_build(name: str) -> tuple[str | None, dict[str, str]]:
+    """The committed build record of ``name``: the dataset's sha256 and {export folder: weights sha256} (None and
+    {} without a record; an older record holds no exports)."""
+    path = sha256_file(name)
+    if not path.exists():
+        return None, {}
+    lines = [line.split() for line in path.read_text().splitlines() if line.strip()]
+    exports = {parts[2]: parts[0] for parts in lines[1:] if len(parts) == 3 and parts[1] == "export"}
+    return lines[0][0], exports
+
+
+def changed_exports(name: str) -> list[str]:
+    """The recipe's exports whose weights differ from (or are missing in) the committed build record: a
+    replaced export silently changes the dataset, so tests and the build check this."""
+    _, recorded = recorded_build(name)
+    return [e for e in AGENT_RECIPES[name].exports
+            if recorded.get(e) != PolicyExport.load(pretrained_root() / e).sha256]
+
+
+def record_build(name: str, path: str | Path) -> Path:
+    """Write the build record of shipped dataset ``name`` from the file at ``path`` (its author, after building)."""
+    record = sha256_file(name)
+    record.parent.mkdir(parents=True, exist_ok=True)
+    lines = [f"{file_sha256(path)}  {name}"]
+    lines += [f"{PolicyExport.load(pretrained_root() / e).sha256}  export {e}" for e in AGENT_RECIPES[name].exports]
+    record.write_text("\n".join(lines) + "\n")
+    return record
 
 
 def build_agent_dataset(name: str, progress: bool = True) -> TrajectoryDataset:
@@ -277,12 +312,15 @@ def agent_dataset_path(name: str, rebuild: bool = False, progress: bool = True) 
     if path.exists() and not rebuild:
         return path
     build_agent_dataset(name, progress).save(path)
-    expected = sha256_file(name)
+    expected, _ = recorded_build(name)
     actual = file_sha256(path)
-    if expected.exists() and expected.read_text().split()[0] != actual:
+    if expected is not None and expected != actual:
+        changed = changed_exports(name)
+        cause = (f"its exports {', '.join(changed)} are not the ones recorded in {sha256_file(name)}" if changed
+                 else "as on another CPU")
         warnings.warn(f"{name}: the dataset built here (sha256 {actual[:16]}...) differs from the one its recipe's "
-                      f"author built ({expected.read_text().split()[0][:16]}...), as on another CPU; results on it "
-                      "name this file's sha256", DatasetBuildMismatchWarning, stacklevel=2)
+                      f"author built ({expected[:16]}...), {cause}; results on it name this file's sha256",
+                      DatasetBuildMismatchWarning, stacklevel=2)
     return path
 
 

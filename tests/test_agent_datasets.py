@@ -10,6 +10,7 @@ from conftest import TINY_TRAINING
 
 import loco_mujoco as lm
 from loco_mujoco import agent_datasets
+from loco_mujoco.agent_datasets import AGENT_RECIPES, changed_exports, pretrained_root, recorded_build, sha256_file
 from loco_mujoco.policy_export import MAX_BYTES, ExportError, PolicyExport
 
 # A tiny GAIfO run trained here (finished runs keep only their export in git, so no checkpoint is relied on).
@@ -87,7 +88,7 @@ def test_same_export_and_seed_build_a_byte_identical_file(tmp_path):
 
 
 @pytest.mark.parametrize("name", ["UnitreeH1.walk.preference", "Atlas.walk.preference", "Talos.walk.preference",
-                                  "HumanoidTorque.walk.preference"])
+                                  "HumanoidTorque.walk.preference", "UnitreeA1.simple.preference"])
 def test_preference_sets_are_ranked_by_return(name):
     env = lm.LocoEnv.make(name)
     sets = env.dataset.metadata["sets"]
@@ -101,12 +102,34 @@ def test_preference_sets_are_ranked_by_return(name):
     assert env.create_dataset()["absorbing"].sum() == fell  # every episode that ended early ended in a fall
 
 
+@pytest.mark.parametrize("name", sorted(AGENT_RECIPES))
+def test_shipped_datasets_use_the_exports_their_build_record_names(name):
+    """Replacing an export (a table run that went on to a larger budget) silently changed UnitreeH1.walk.preference
+    once; every recipe's exports must be the ones its committed build record names."""
+    digest, exports = recorded_build(name)
+    assert digest is not None and len(digest) == 64, f"{name}: no build record at {sha256_file(name)}"
+    assert sorted(exports) == sorted(AGENT_RECIPES[name].exports)
+    assert changed_exports(name) == [], f"{name}: rebuild and run build_datasets.py --record {name}"
+
+
+def test_a_replaced_export_is_named(tmp_path, monkeypatch):
+    name = "UnitreeH1.walk.perfect"
+    export = AGENT_RECIPES[name].exports[0]
+    shutil.copytree(pretrained_root() / export, tmp_path / export)
+    shutil.copytree(pretrained_root() / "UnitreeH1.walk" / "datasets", tmp_path / "UnitreeH1.walk" / "datasets")
+    other = pretrained_root() / "UnitreeH1.walk" / "gaifo" / "seed0" / "policy.safetensors"
+    monkeypatch.setenv("LOCO_MUJOCO_PRETRAINED", str(tmp_path))
+    assert changed_exports(name) == []
+    shutil.copy(other, tmp_path / export / "policy.safetensors")
+    assert changed_exports(name) == [export]
+
+
 def test_settings_travel_with_the_data_and_conflicts_raise():
     with pytest.raises(ValueError, match="recorded with control='pd', but control='torque'"):
         lm.LocoEnv.make("UnitreeH1.walk.perfect", control="torque")
     assert lm.LocoEnv.make("UnitreeH1.walk.perfect", control="pd").control == "pd"
     with pytest.raises(ValueError, match="Dataset types with data for it: real"):
-        lm.LocoEnv.make("UnitreeA1.simple.preference")
+        lm.LocoEnv.make("UnitreeA1.hard.preference")
 
 
 def test_a_build_that_differs_from_the_committed_one_warns(tmp_path, monkeypatch):
