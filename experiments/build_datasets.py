@@ -74,6 +74,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.export_minari is None and (args.minari_id is not None or args.overwrite):
         parser.error("--minari-id and --overwrite go with --export-minari TASK")
     if args.record is not None:
+        if args.list or args.task or args.rebuild or args.export_minari is not None:
+            parser.error("--record NAME does not combine with --list, --task, --rebuild or --export-minari")
         return record_agent_dataset(args.record)
     if args.export_minari is not None:
         if args.list or args.task or args.rebuild:

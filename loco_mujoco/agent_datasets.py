@@ -249,8 +249,13 @@ def _real_dataset_key(name: str) -> str:
     return cache_path(subject, parsed.task, resolve_variant(subject, parsed.task, None), parsed.mode).name
 
 
+def _export_sha256s(recipe: AgentRecipe) -> dict[str, str]:
+    """{export folder: weights sha256} of the recipe's exports, in recipe order."""
+    return {e: PolicyExport.load(pretrained_root() / e).sha256 for e in recipe.exports}
+
+
 def _recipe_key(name: str, recipe: AgentRecipe) -> str:
-    shas = [PolicyExport.load(pretrained_root() / e).sha256 for e in recipe.exports]
+    shas = list(_export_sha256s(recipe).values())
     key = json.dumps({"version": VERSION, "name": name, "recipe": asdict(recipe), "exports": shas,
                       "starts": _real_dataset_key(name)}, sort_keys=True)
     return hashlib.sha256(key.encode()).hexdigest()[:12]
@@ -278,8 +283,7 @@ def changed_exports(name: str) -> list[str]:
     """The recipe's exports whose weights differ from (or are missing in) the committed build record: a
     replaced export silently changes the dataset, so tests and the build check this."""
     _, recorded = recorded_build(name)
-    return [e for e in AGENT_RECIPES[name].exports
-            if recorded.get(e) != PolicyExport.load(pretrained_root() / e).sha256]
+    return [e for e, sha in _export_sha256s(AGENT_RECIPES[name]).items() if recorded.get(e) != sha]
 
 
 def record_build(name: str, path: str | Path) -> Path:
@@ -287,7 +291,7 @@ def record_build(name: str, path: str | Path) -> Path:
     record = sha256_file(name)
     record.parent.mkdir(parents=True, exist_ok=True)
     lines = [f"{file_sha256(path)}  {name}"]
-    lines += [f"{PolicyExport.load(pretrained_root() / e).sha256}  export {e}" for e in AGENT_RECIPES[name].exports]
+    lines += [f"{sha}  export {e}" for e, sha in _export_sha256s(AGENT_RECIPES[name]).items()]
     record.write_text("\n".join(lines) + "\n")
     return record
 
