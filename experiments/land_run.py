@@ -1,0 +1,235 @@
+"""Bring a trained run into the repository: ``python experiments/land_run.py RUN_DIR [--park]``.
+
+A finished run (its checkpoint reached ``train.n_steps``) lands as what the table and users read:
+
+- ``results/runs/<name>/``: its config, log and machines (a parked checkpoint of the same run there is removed);
+- ``results/<name>_eval.json``: its evaluation under the protocol (deterministic and stochastic policy, imitation
+  metrics), as ``evaluate.py --metrics --stochastic --json`` writes it;
+- ``results/<name>.csv``, ``.png``, ``_references.json``: its learning curve (``plot_results.py``);
+- ``pretrained/<task>/<algo>/seed<N>/``: its policy export, whose card carries that same evaluation;
+- ``results/table.md``, ``table.csv``, ``performance_profile.png``: regenerated.
+
+An unfinished run is parked with ``--park``: its resumable state (checkpoint, config, log, machines; never a
+replay buffer) goes into ``results/runs/<name>/``, so that a fresh machine continues it with
+``launch.py --env TASK --algo ALGO --threads 1 --resume --out results/runs/<name>``. Parking again replaces an
+earlier state of the same run only; a later one, another run's or a landed run's folder is refused.
+
+``<name>`` is ``<task>_<algo>`` (``_seed<N>`` for seeds other than 0). Every target is checked before any work:
+an existing evaluation, curve or export is replaced only with ``--replace``, and an export that a shipped agent
+dataset is built from only with ``--allow-dataset-change`` as well (that dataset must then be rebuilt and recorded:
+``build_datasets.py --record NAME``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # run from a checkout without installing
+
+REPO = Path(__file__).resolve().parent.parent
+PARKED_FILES = ("checkpoint.pt", "config.yaml", "progress.csv", "machines.csv")  # no replay buffer, no TensorBoard
+LANDED_FILES = ("config.yaml", "progress.csv", "machines.csv")
+CURVE_SUFFIXES = (".csv", ".png", "_references.json")
+
+
+class LandingRefused(ValueError):
+    """A target holds something the landing would overwrite or contradict; nothing was changed."""
+
+
+@dataclass
+class Run:
+    """The run to land: where it is, its configuration and how far it trained."""
+
+    path: Path
+    config: Any  # baselines.config.RunConfig
+    steps: int
+
+    @property
+    def finished(self) -> bool:
+        return self.steps >= self.config.train.n_steps
+
+    @property
+    def name(self) -> str:
+        from experiments.plot_results import output_stem
+
+        return output_stem(self.config)
+
+    @property
+    def export_folder(self) -> str:
+        """The export's folder relative to the pretrained root, as agent-dataset recipes name it."""
+        return f"{self.config.task}/{self.config.algorithm}/seed{self.config.seed}"
+
+
+def read_run(run_dir: Path) -> Run:
+    """The run in ``run_dir`` (a folder with ``checkpoint.pt``, or the checkpoint itself)."""
+    from baselines.training import CHECKPOINT, load_checkpoint, run_config_from_checkpoint
+
+    path = Path(run_dir)
+    path = path.parent if path.name == CHECKPOINT else path
+    if not (path / CHECKPOINT).exists():
+        raise FileNotFoundError(f"{path} holds no {CHECKPOINT}: give a run folder (e.g. a sweep trial's "
+                                "<out>/<task>/<algo>/seed<N>)")
+    state = load_checkpoint(path / CHECKPOINT)
+    return Run(path, run_config_from_checkpoint(state), int(state["steps"]))
+
+
+def parked_steps(folder: Path, run: Run) -> int | None:
+    """Steps of the parked state of ``run`` in ``folder`` (None if it holds none); raises
+    :class:`LandingRefused` if the folder holds another run's checkpoint."""
+    from experiments.sweep_plan import config_differences
+
+    if not (folder / "checkpoint.pt").exists():
+        return None
+    other = read_run(folder)
+    diffs = config_differences(other.config.to_dict(), run.config.to_dict())
+    if diffs:
+        raise LandingRefused(f"{folder} holds another run ({'; '.join(diffs[:3])}); move it away first")
+    return other.steps
+
+
+def plan_park(run: Run, results: Path) -> Path:
+    """Check that ``run`` can be parked in ``results/runs/<name>``; returns that folder."""
+    if run.finished:
+        raise LandingRefused(f"{run.path} finished ({run.steps:,} of {run.config.train.n_steps:,} steps): land it "
+                             "without --park")
+    folder = results / "runs" / run.name
+    earlier = parked_steps(folder, run)
+    if earlier is None and any((folder / f).exists() for f in LANDED_FILES):
+        raise LandingRefused(f"{folder} holds a landed run (a log without checkpoint): park under another name by "
+                             "moving that folder away first")
+    if earlier is not None and earlier > run.steps:
+        raise LandingRefused(f"{folder} holds a later state of this run ({earlier:,} steps > {run.steps:,})")
+    return folder
+
+
+def park(run: Run, results: Path) -> Path:
+    """Copy ``run``'s resumable state into ``results/runs/<name>``."""
+    folder = plan_park(run, results)
+    folder.mkdir(parents=True, exist_ok=True)
+    for name in PARKED_FILES:
+        if (run.path / name).exists() and (run.path / name).resolve() != (folder / name).resolve():
+            shutil.copy2(run.path / name, folder / name)
+    return folder
+
+
+@dataclass
+class Targets:
+    """Where a landing writes."""
+
+    run_folder: Path
+    evaluation: Path
+    curves: list[Path]
+    export: Path
+
+
+def plan_landing(run: Run, results: Path, pretrained: Path, replace: bool = False,
+                 allow_dataset_change: bool = False) -> Targets:
+    """Check every target of landing ``run``; raises :class:`LandingRefused` naming the first conflict."""
+    if not run.finished:
+        raise LandingRefused(f"{run.path} is unfinished ({run.steps:,} of {run.config.train.n_steps:,} steps): "
+                             "train it on, or --park its resumable state")
+    name = run.name
+    targets = Targets(results / "runs" / name, results / f"{name}_eval.json",
+                      [results / f"{name}{s}" for s in CURVE_SUFFIXES], pretrained / run.export_folder)
+    if parked_steps(targets.run_folder, run) is None and any((targets.run_folder / f).exists()
+                                                              for f in LANDED_FILES) and not replace:
+        raise LandingRefused(f"{targets.run_folder} holds a landed run; pass --replace to land this one over it")
+    existing = [str(p) for p in (targets.evaluation, *targets.curves, targets.export) if p.exists()]
+    if existing and not replace:
+        raise LandingRefused(f"would replace {', '.join(existing)}; pass --replace to land this run over them")
+    if targets.export.exists():
+        datasets = datasets_built_from(run.export_folder)
+        if datasets and not allow_dataset_change:
+            raise LandingRefused(
+                f"{targets.export} is an export of the shipped datasets {', '.join(datasets)}: replacing it changes "
+                "them. Either copy it to <task>/preference/<algo>_seed<N>_<steps> and point the recipes there "
+                "(loco_mujoco/agent_datasets.py), or pass --allow-dataset-change and rebuild and record them "
+                "(experiments/build_datasets.py --record NAME)")
+    return targets
+
+
+def datasets_built_from(export_folder: str) -> list[str]:
+    """The shipped agent datasets whose recipe uses the export ``<task>/<algo>/seed<N>``."""
+    from loco_mujoco.agent_datasets import AGENT_RECIPES
+
+    return sorted(name for name, recipe in AGENT_RECIPES.items() if export_folder in recipe.exports)
+
+
+def card_evaluation(results: dict[str, Any]) -> dict[str, Any]:
+    """The card's evaluation, taken from the evaluation file so the two never disagree."""
+    det = results["deterministic"]
+    protocol = {"episodes": results["protocol"]["episodes"], "seed": results["protocol"]["seed"],
+                "deterministic": True}
+    return {"protocol": protocol, **{k: det[k] for k in ("score", "R", "J", "L")}}
+
+
+def land(run: Run, results: Path, pretrained: Path, replace: bool = False, allow_dataset_change: bool = False,
+         table: bool = True) -> Targets:
+    """Land the finished ``run``: log, evaluation, curve, export and the regenerated table (see the module doc)."""
+    from baselines.export import export_checkpoint
+    from experiments import evaluate, plot_results, results_table
+
+    targets = plan_landing(run, results, pretrained, replace, allow_dataset_change)
+    checkpoint = run.path / "checkpoint.pt"
+    args = [str(checkpoint), "--metrics", "--stochastic", "--json", str(targets.evaluation), "--force"]
+    if evaluate.main(args) != 0:
+        raise RuntimeError(f"the evaluation of {checkpoint} failed (see above); nothing was landed")
+    evaluation = card_evaluation(json.loads(targets.evaluation.read_text()))
+
+    folder = targets.run_folder
+    folder.mkdir(parents=True, exist_ok=True)
+    for name in LANDED_FILES:
+        if (run.path / name).exists() and (run.path / name).resolve() != (folder / name).resolve():
+            shutil.copy2(run.path / name, folder / name)
+    plot_results.plot_run(folder, results, force=True)
+    export_checkpoint(checkpoint, targets.export, evaluation, overwrite=targets.export.exists())  # checked above
+    if (folder / "checkpoint.pt").exists() and folder.resolve() != run.path.resolve():
+        (folder / "checkpoint.pt").unlink()  # the parked state of this run: its export supersedes it
+    if table:
+        results_table.main(["--results", str(results), "--runs", str(results / "runs"), "--pretrained",
+                            str(pretrained), "--out", str(results), "--force"])
+    return targets
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("run_dir", type=Path, help="the run's folder (or its checkpoint.pt)")
+    parser.add_argument("--park", action="store_true", help="copy an unfinished run's resumable state")
+    parser.add_argument("--replace", action="store_true", help="replace an existing evaluation, curve and export")
+    parser.add_argument("--allow-dataset-change", action="store_true",
+                        help="with --replace: replace an export that shipped agent datasets are built from")
+    parser.add_argument("--no-table", action="store_true", help="do not regenerate the results table")
+    parser.add_argument("--results", type=Path, default=REPO / "results", help="results folder (default: results/)")
+    parser.add_argument("--pretrained", type=Path, default=None,
+                        help="pretrained folder (default: $LOCO_MUJOCO_PRETRAINED or pretrained/)")
+    args = parser.parse_args(argv)
+    from loco_mujoco.agent_datasets import pretrained_root
+
+    try:
+        run = read_run(args.run_dir)
+        if args.park:
+            folder = park(run, args.results)
+            size = sum((folder / f).stat().st_size for f in PARKED_FILES if (folder / f).exists())
+            print(f"parked: {run.config.task} {run.config.algorithm} seed {run.config.seed} at {run.steps:,} of "
+                  f"{run.config.train.n_steps:,} steps in {folder} ({size:,} bytes); continue with\n"
+                  f"  python experiments/launch.py --env {run.config.task} --algo {run.config.algorithm} "
+                  f"--threads 1 --resume --out {folder}")
+            return 0
+        targets = land(run, args.results, args.pretrained or pretrained_root(), args.replace,
+                       args.allow_dataset_change, table=not args.no_table)
+    except (FileNotFoundError, LandingRefused) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    size = sum(f.stat().st_size for f in targets.export.iterdir())
+    print(f"landed: {targets.run_folder}, {targets.evaluation}, export {targets.export} ({size:,} bytes)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
