@@ -212,9 +212,10 @@ def render_markdown(cells: list[Cell], agg: dict[str, dict[str, Any]], inputs: I
         "- **budget**: training steps per seed, environment steps (env) or, for BC, gradient steps (grad); "
         "**hours**: per seed, the sum over logged epochs of the epoch's steps over its logged `train_steps_per_s` "
         "(learning only: without the per-epoch evaluation and checkpoint; the runs shared their CPUs with others), "
-        "'-' where no complete log is found; **machine**: the processor model and CPU count "
-        "that trained each stretch of the run, from the run's `machines.csv` (written at every start and resume "
-        "since 2026-11-27; '-' for older runs).",
+        "'-' where no complete log is found; **machine**: the processor model, its widest vector instructions "
+        "(recorded since 2026-11-28: virtual machines show one model name for processors 3.5-4x apart, AVX-512 "
+        "against AVX2) and CPU count that trained each stretch of the run, from the run's `machines.csv` (written "
+        "at every start and resume since 2026-11-27; '-' for older runs).",
         "- **random / hold / expert R**: the returns of the task's references (uniformly random actions, a "
         "controller holding the home pose, the expert's dataset frames) that the row's scores are normalised by; "
         "for a row without an evaluation, those of the task's other evaluations where there are any "

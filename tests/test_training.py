@@ -1,6 +1,7 @@
 """Configs, the training loop with checkpoints, the launcher and evaluation scripts, inverse-dynamics actions."""
 
 import csv
+import platform
 import shutil
 import subprocess
 import sys
@@ -24,7 +25,7 @@ from baselines.common.inverse_dynamics import (  # noqa: E402
     inverse_dynamics_actions,
     inverse_dynamics_report,
 )
-from baselines.common.machine import cpu_model, describe, read_machines, record_machine  # noqa: E402
+from baselines.common.machine import cpu_model, describe, read_machines, record_machine, vector_isa  # noqa: E402
 from baselines.config import CONFIG_DIR, ConfigError, load_run_config, parse_overrides  # noqa: E402
 from baselines.export import export_checkpoint  # noqa: E402
 from baselines.training import Trainer, load_checkpoint  # noqa: E402
@@ -237,7 +238,9 @@ def test_machine_log_drops_unsaved_stretches(tmp_path):
     rows = read_machines(tmp_path)
     assert [(r["step"], r["torch_threads"], r["machine"]) for r in rows] == [("0", "1", describe()),
                                                                              ("400", "1", describe())]
-    assert describe(16).endswith("(16 CPUs)") and cpu_model()
+    assert describe(16).endswith("(16 CPUs)") and describe(16).startswith(cpu_model()) and cpu_model()
+    if platform.machine() == "x86_64":  # the vector instructions name the machine kind beside the model
+        assert vector_isa() in ("AVX-512", "AVX2", "AVX") and f", {vector_isa()} (" in describe()
 
 
 def test_resume_drops_log_rows_of_an_unsaved_epoch_and_refuses_mismatches(tmp_path):
