@@ -228,6 +228,9 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     size = sum(f.stat().st_size for f in targets.export.iterdir())
     print(f"landed: {targets.run_folder}, {targets.evaluation}, export {targets.export} ({size:,} bytes)")
+    if (targets.run_folder / "checkpoint.pt").exists():  # trained in place: the run's own files stay untouched
+        print(f"note: {targets.run_folder} was the run's own folder and keeps its checkpoint.pt; a finished run keeps "
+              "only its export in git: `git rm --cached` it, or move it out of the tree")
     return 0
 
 
