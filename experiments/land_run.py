@@ -33,8 +33,10 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # run from a checkout without installing
 
 REPO = Path(__file__).resolve().parent.parent
-PARKED_FILES = ("checkpoint.pt", "config.yaml", "progress.csv", "machines.csv")  # no replay buffer, no TensorBoard
-LANDED_FILES = ("config.yaml", "progress.csv", "machines.csv")
+# What a run folder in git holds: its log, config and machines (and a warm start's copy of its source's log); a
+# parked one also its checkpoint, never a replay buffer or TensorBoard files.
+LANDED_FILES = ("config.yaml", "progress.csv", "machines.csv", "init_from_progress.csv")
+PARKED_FILES = ("checkpoint.pt", *LANDED_FILES)
 CURVE_SUFFIXES = (".csv", ".png", "_references.json")
 
 
@@ -184,9 +186,12 @@ def land(run: Run, results: Path, pretrained: Path, replace: bool = False, allow
 
     folder = targets.run_folder
     folder.mkdir(parents=True, exist_ok=True)
-    for name in LANDED_FILES:
-        if (run.path / name).exists() and (run.path / name).resolve() != (folder / name).resolve():
-            shutil.copy2(run.path / name, folder / name)
+    for name in LANDED_FILES:  # a replaced run's files that this run lacks go too
+        if (run.path / name).exists():
+            if (run.path / name).resolve() != (folder / name).resolve():
+                shutil.copy2(run.path / name, folder / name)
+        elif (folder / name).exists():
+            (folder / name).unlink()
     plot_results.plot_run(folder, results, force=True)
     export_checkpoint(checkpoint, targets.export, evaluation, overwrite=targets.export.exists())  # checked above
     if (folder / "checkpoint.pt").exists() and folder.resolve() != run.path.resolve():

@@ -10,7 +10,6 @@ import torch
 from conftest import TINY_TRAINING
 
 from experiments.land_run import (
-    PARKED_FILES,
     LandingRefused,
     card_evaluation,
     datasets_built_from,
@@ -50,7 +49,8 @@ def test_park_copies_the_resumable_state_and_refuses_what_it_would_overwrite(fin
     results = tmp_path / "results"
     assert main([str(half), "--park", "--results", str(results)]) == 0
     parked = results / "runs" / "UnitreeH1.walk_gaifo_seed3"
-    assert sorted(p.name for p in parked.iterdir()) == sorted(PARKED_FILES)  # no TensorBoard, no replay buffer
+    expected = ["checkpoint.pt", "config.yaml", "machines.csv", "progress.csv"]  # no TensorBoard, no replay buffer
+    assert sorted(p.name for p in parked.iterdir()) == expected
     assert (parked / "checkpoint.pt").read_bytes() == (half / "checkpoint.pt").read_bytes()
     assert "at 200 of 400 steps" in capsys.readouterr().out
     park(read_run(half), results)  # the same state again: allowed
