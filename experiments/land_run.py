@@ -10,9 +10,10 @@ A finished run (its checkpoint reached ``train.n_steps``) lands as what the tabl
 - ``results/table.md``, ``table.csv``, ``performance_profile.png``: regenerated.
 
 An unfinished run is parked with ``--park``: its resumable state (checkpoint, config, log, machines; never a
-replay buffer) goes into ``results/runs/<name>/``, so that a fresh machine continues it with
-``launch.py --env TASK --algo ALGO --threads 1 --resume --out results/runs/<name>``. Parking again replaces an
-earlier state of the same run only; a later one, another run's or a landed run's folder is refused.
+replay buffer; its policy snapshots with ``--snapshots``) goes into ``results/runs/<name>/``, so that a fresh
+machine continues it with ``launch.py --env TASK --algo ALGO --threads 1 --resume --out results/runs/<name>``.
+Parking again replaces an earlier state of the same run only; a later one, another run's or a landed run's folder
+is refused.
 
 ``<name>`` is ``<task>_<algo>`` (``_seed<N>`` for seeds other than 0). Every target is checked before any work:
 an existing evaluation, curve or export is replaced only with ``--replace``, and an export that a shipped agent
@@ -110,13 +111,16 @@ def plan_park(run: Run, results: Path) -> Path:
     return folder
 
 
-def park(run: Run, results: Path) -> Path:
-    """Copy ``run``'s resumable state into ``results/runs/<name>``."""
+def park(run: Run, results: Path, snapshots: bool = False) -> Path:
+    """Copy ``run``'s resumable state into ``results/runs/<name>``, with its policy snapshots if ``snapshots`` (the
+    agents of preference datasets, ~0.3-0.6 MB each)."""
     folder = plan_park(run, results)
     folder.mkdir(parents=True, exist_ok=True)
     for name in PARKED_FILES:
         if (run.path / name).exists() and (run.path / name).resolve() != (folder / name).resolve():
             shutil.copy2(run.path / name, folder / name)
+    if snapshots and (run.path / "snapshots").is_dir() and run.path.resolve() != folder.resolve():
+        shutil.copytree(run.path / "snapshots", folder / "snapshots", dirs_exist_ok=True)
     return folder
 
 
@@ -206,6 +210,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("run_dir", type=Path, help="the run's folder (or its checkpoint.pt)")
     parser.add_argument("--park", action="store_true", help="copy an unfinished run's resumable state")
+    parser.add_argument("--snapshots", action="store_true", help="with --park: also copy the policy snapshots")
     parser.add_argument("--replace", action="store_true", help="replace an existing evaluation, curve and export")
     parser.add_argument("--allow-dataset-change", action="store_true",
                         help="with --replace: replace an export that shipped agent datasets are built from")
@@ -219,8 +224,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         run = read_run(args.run_dir)
         if args.park:
-            folder = park(run, args.results)
-            size = sum((folder / f).stat().st_size for f in PARKED_FILES if (folder / f).exists())
+            folder = park(run, args.results, args.snapshots)
+            size = sum(f.stat().st_size for f in folder.rglob("*") if f.is_file())
             print(f"parked: {run.config.task} {run.config.algorithm} seed {run.config.seed} at {run.steps:,} of "
                   f"{run.config.train.n_steps:,} steps in {folder} ({size:,} bytes); continue with\n"
                   f"  python experiments/launch.py --env {run.config.task} --algo {run.config.algorithm} "

@@ -53,7 +53,10 @@ def test_park_copies_the_resumable_state_and_refuses_what_it_would_overwrite(fin
     assert sorted(p.name for p in parked.iterdir()) == expected
     assert (parked / "checkpoint.pt").read_bytes() == (half / "checkpoint.pt").read_bytes()
     assert "at 200 of 400 steps" in capsys.readouterr().out
-    park(read_run(half), results)  # the same state again: allowed
+    (half / "snapshots" / "100").mkdir(parents=True)
+    (half / "snapshots" / "100" / "card.json").write_text("{}")
+    park(read_run(half), results, snapshots=True)  # the same state again: allowed; with its snapshots when asked
+    assert (parked / "snapshots" / "100" / "card.json").read_text() == "{}"
 
     with pytest.raises(LandingRefused, match="finished .*land it without --park"):
         park(read_run(finished), results)
