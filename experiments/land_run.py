@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import shutil
 import sys
 from dataclasses import dataclass
@@ -225,11 +226,12 @@ def main(argv: list[str] | None = None) -> int:
         run = read_run(args.run_dir)
         if args.park:
             folder = park(run, args.results, args.snapshots)
+            shown = os.path.relpath(folder) if not os.path.relpath(folder).startswith("..") else folder
             size = sum(f.stat().st_size for f in folder.rglob("*") if f.is_file())
             print(f"parked: {run.config.task} {run.config.algorithm} seed {run.config.seed} at {run.steps:,} of "
-                  f"{run.config.train.n_steps:,} steps in {folder} ({size:,} bytes); continue with\n"
+                  f"{run.config.train.n_steps:,} steps in {shown} ({size:,} bytes); continue with\n"
                   f"  python experiments/launch.py --env {run.config.task} --algo {run.config.algorithm} "
-                  f"--threads 1 --resume --out {folder}")
+                  f"--threads 1 --resume --out {shown}")
             return 0
         targets = land(run, args.results, args.pretrained or pretrained_root(), args.replace,
                        args.allow_dataset_change, table=not args.no_table)

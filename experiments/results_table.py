@@ -6,9 +6,9 @@ Writes ``table.md``, ``table.csv`` and ``performance_profile.png`` into ``--out`
 only with ``--force``. Same inputs give byte-identical files (every bootstrap seeded, no dates, no absolute paths).
 
 One row per task and algorithm of the planned grid (6 tasks x 7 algorithms), its seeds pooled episode by episode
-(:mod:`experiments.table_cells` says how rows are filled and when a row is "not run", "not evaluated" or "n/a"; the
-inputs are read by :mod:`experiments.table_sources`). Below the table, per algorithm over the tasks it has: the
-IQM of run scores with a 95% stratified-bootstrap interval, and the performance profile (fraction of runs with
+(:mod:`experiments.table_cells` says how rows are filled and when a row is "not run", "in progress", "not evaluated"
+or "n/a"; the inputs are read by :mod:`experiments.table_sources`). Below the table, per algorithm over the tasks it
+has: the IQM of run scores with a 95% stratified-bootstrap interval, and the performance profile (fraction of runs with
 score > tau) with its band, from :mod:`loco_mujoco.evaluation.aggregate` (numpy, because rliable 1.2.0 pins
 ``arch<8``).
 """

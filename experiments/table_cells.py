@@ -7,7 +7,8 @@ its evaluation file's intervals). One evaluation per
 seed: where a seed has several (a run and its warm-started continuation), the one with the most training steps,
 the others named in the notes. An agent trained on ``<task>.perfect`` data (evaluated on the real task) fills its
 base task's row, marked "(perfect data)", unless the row has an agent trained on the real data. A row without any
-says "not run", or "not evaluated" where a run directory trains it, or "n/a: no expert actions" where its
+says "not run", "in progress" where its run directories stop short of their planned steps (a run training, or
+parked to continue), "not evaluated" where a run directory finished it, or "n/a: no expert actions" where its
 committed config asks for derived expert actions (``train.expert_actions`` inverse_dynamics or auto, without
 ``agent.from_observations``), the task ships no ``.perfect`` dataset with actions, and inverse dynamics refuses the
 model's actuators (muscles): read from the configs and the code, not listed here. A filled row whose score
@@ -45,6 +46,7 @@ TASKS = ("UnitreeH1.walk", "Talos.walk", "Atlas.walk", "UnitreeA1.simple", "Huma
          "HumanoidMuscle.walk")
 ALGORITHMS = ("gail", "vail", "gaifo", "iq_learn", "lsiq", "sqil", "bc")
 OK, NOT_RUN, NOT_EVALUATED, NO_ACTIONS = "ok", "not run", "not evaluated", "n/a: no expert actions"
+IN_PROGRESS = "in progress"  # its runs stop short of their planned steps
 DID_NOT_LEARN = "did not learn: its score's 95% interval reaches 0 (uniformly random actions)"
 NAMES = {"gail": "GAIL", "vail": "VAIL", "gaifo": "GAIfO", "iq_learn": "IQ-Learn", "lsiq": "LS-IQ", "sqil": "SQIL",
          "bc": "BC"}
@@ -199,12 +201,13 @@ def _empty(cell: Cell, runs: list[TrainingRun]) -> None:
     mine = [r for r in runs if r.algorithm == cell.algorithm and r.task in (cell.task, f"{cell.task}.perfect")]
     cell.control = _modes([(r.task, r.control) for r in mine] or [(cell.task, committed_control(cell))])
     if mine:
-        cell.status = NOT_EVALUATED
+        cell.status = IN_PROGRESS if all(r.unfinished for r in mine) else NOT_EVALUATED
         cell.budgets = [r.budget for r in mine]
         for r in mine:
             data = " (perfect data)" if r.task.endswith(".perfect") else ""
-            cell.notes.append(f"seed {r.seed}{data}: {r.directory} at {format_steps(r.budget.steps)}, "
-                              "no evaluation file")
+            where = (f"at {format_steps(r.budget.steps)} of {format_steps(r.planned_steps)}" if r.unfinished
+                     else f"at {format_steps(r.budget.steps)}")
+            cell.notes.append(f"seed {r.seed}{data}: {r.directory} {where}, no evaluation file")
     elif expert_actions_unavailable(cell.task, cell.algorithm):
         cell.status = NO_ACTIONS
 

@@ -267,6 +267,12 @@ class TrainingRun:
     budget: Budget
     directory: str
     control: str | None = None  # as its config names it (None: the task's default)
+    planned_steps: int | None = None  # its config's train.n_steps (None where the config does not say)
+
+    @property
+    def unfinished(self) -> bool:
+        """Whether the log stops short of the run's planned steps (a run in progress, or parked to continue)."""
+        return self.planned_steps is not None and self.budget.steps < self.planned_steps
 
 
 def training_runs(runs_dir: Path) -> list[TrainingRun]:
@@ -282,6 +288,7 @@ def training_runs(runs_dir: Path) -> list[TrainingRun]:
         steps = int(rows[-1]["step"])
         budget = Budget(steps, _run_hours(run_dir, config, steps), _machine(run_dir, config, steps),
                         f"{runs_dir.name}/{run_dir.name}/progress.csv")
+        planned = (config.get("train") or {}).get("n_steps")
         out.append(TrainingRun(config["task"], config["algorithm"], int(config["seed"]), budget, run_dir.name,
-                               (config.get("env") or {}).get("control")))
+                               (config.get("env") or {}).get("control"), int(planned) if planned else None))
     return out

@@ -12,6 +12,7 @@ from experiments.results_table import OUTPUTS, main
 from experiments.table_cells import (
     ALGORITHMS,
     DID_NOT_LEARN,
+    IN_PROGRESS,
     NO_ACTIONS,
     NOT_EVALUATED,
     NOT_RUN,
@@ -141,6 +142,16 @@ def test_perfect_data_superseded_seeds_and_runs_without_evaluation(dirs):
     assert vail.figures["score"] == pytest.approx(20.0) and "superseded" in vail.notes[0]
     sqil = rows["UnitreeH1.walk", "sqil"]
     assert sqil.status == NOT_EVALUATED and sqil.budgets[0].steps == 40_000
+    parked = runs / "Talos.walk_gaifo"  # a run stopped short of its planned steps (parked to continue)
+    parked.mkdir()
+    (parked / "config.yaml").write_text(yaml.safe_dump({"task": "Talos.walk", "algorithm": "gaifo", "seed": 0,
+                                                        "train": {"n_steps": 20_000_000}}))
+    (parked / "progress.csv").write_text("step,epoch,train_steps_per_s\n100000,1,1000\n6700000,67,950\n")
+    gaifo = table(results, runs)[0]["Talos.walk", "gaifo"]
+    assert gaifo.status == IN_PROGRESS and gaifo.budgets[0].steps == 6_700_000
+    assert gaifo.notes == ["seed 0: Talos.walk_gaifo at 6.7M of 20.0M, no evaluation file"]
+    (parked / "progress.csv").write_text("step,epoch,train_steps_per_s\n20000000,200,950\n")  # finished
+    assert table(results, runs)[0]["Talos.walk", "gaifo"].status == NOT_EVALUATED
     assert sqil.budgets[0].machine == "Xeon (16 CPUs) 0-20k + EPYC (2 CPUs) 20k-40k"  # from the run's machines.csv
     assert sqil.budgets[0].hours == pytest.approx((20_000 / 100 + 20_000 / 50) / 3600)
     from experiments.results_table import compute_cost, compute_lines
