@@ -34,11 +34,14 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # run from a checkout without installing
 
+from baselines.common.machine import MACHINES  # noqa: E402
+from baselines.training import CHECKPOINT, INIT_FROM_PROGRESS, SNAPSHOTS  # noqa: E402
+
 REPO = Path(__file__).resolve().parent.parent
 # What a run folder in git holds: its log, config and machines (and a warm start's copy of its source's log); a
 # parked one also its checkpoint, never a replay buffer or TensorBoard files.
-LANDED_FILES = ("config.yaml", "progress.csv", "machines.csv", "init_from_progress.csv")
-PARKED_FILES = ("checkpoint.pt", *LANDED_FILES)
+LANDED_FILES = ("config.yaml", "progress.csv", MACHINES, INIT_FROM_PROGRESS)
+PARKED_FILES = (CHECKPOINT, *LANDED_FILES)
 CURVE_SUFFIXES = (".csv", ".png", "_references.json")
 
 
@@ -72,7 +75,7 @@ class Run:
 
 def read_run(run_dir: Path) -> Run:
     """The run in ``run_dir`` (a folder with ``checkpoint.pt``, or the checkpoint itself)."""
-    from baselines.training import CHECKPOINT, load_checkpoint, run_config_from_checkpoint
+    from baselines.training import load_checkpoint, run_config_from_checkpoint
 
     path = Path(run_dir)
     path = path.parent if path.name == CHECKPOINT else path
@@ -88,7 +91,7 @@ def parked_steps(folder: Path, run: Run) -> int | None:
     :class:`LandingRefused` if the folder holds another run's checkpoint."""
     from experiments.sweep_plan import config_differences
 
-    if not (folder / "checkpoint.pt").exists():
+    if not (folder / CHECKPOINT).exists():
         return None
     other = read_run(folder)
     diffs = config_differences(other.config.to_dict(), run.config.to_dict())
@@ -117,12 +120,21 @@ def park(run: Run, results: Path, snapshots: bool = False) -> Path:
     agents of preference datasets, ~0.3-0.6 MB each)."""
     folder = plan_park(run, results)
     folder.mkdir(parents=True, exist_ok=True)
-    for name in PARKED_FILES:
-        if (run.path / name).exists() and (run.path / name).resolve() != (folder / name).resolve():
-            shutil.copy2(run.path / name, folder / name)
-    if snapshots and (run.path / "snapshots").is_dir() and run.path.resolve() != folder.resolve():
-        shutil.copytree(run.path / "snapshots", folder / "snapshots", dirs_exist_ok=True)
+    _copy_run_files(run.path, folder, PARKED_FILES)
+    if snapshots and (run.path / SNAPSHOTS).is_dir() and run.path.resolve() != folder.resolve():
+        shutil.copytree(run.path / SNAPSHOTS, folder / SNAPSHOTS, dirs_exist_ok=True)
     return folder
+
+
+def _copy_run_files(source: Path, folder: Path, names: tuple[str, ...], drop_missing: bool = False) -> None:
+    """Copy ``names`` from ``source`` into ``folder`` (a run landing in its own folder copies nothing); with
+    ``drop_missing``, remove those of ``folder`` that ``source`` lacks."""
+    for name in names:
+        if (source / name).exists():
+            if (source / name).resolve() != (folder / name).resolve():
+                shutil.copy2(source / name, folder / name)
+        elif drop_missing and (folder / name).exists():
+            (folder / name).unlink()
 
 
 @dataclass
@@ -183,7 +195,7 @@ def land(run: Run, results: Path, pretrained: Path, replace: bool = False, allow
     from experiments import evaluate, plot_results, results_table
 
     targets = plan_landing(run, results, pretrained, replace, allow_dataset_change)
-    checkpoint = run.path / "checkpoint.pt"
+    checkpoint = run.path / CHECKPOINT
     args = [str(checkpoint), "--metrics", "--stochastic", "--json", str(targets.evaluation), "--force"]
     if evaluate.main(args) != 0:
         raise RuntimeError(f"the evaluation of {checkpoint} failed (see above); nothing was landed")
@@ -191,16 +203,11 @@ def land(run: Run, results: Path, pretrained: Path, replace: bool = False, allow
 
     folder = targets.run_folder
     folder.mkdir(parents=True, exist_ok=True)
-    for name in LANDED_FILES:  # a replaced run's files that this run lacks go too
-        if (run.path / name).exists():
-            if (run.path / name).resolve() != (folder / name).resolve():
-                shutil.copy2(run.path / name, folder / name)
-        elif (folder / name).exists():
-            (folder / name).unlink()
+    _copy_run_files(run.path, folder, LANDED_FILES, drop_missing=True)  # a replaced run's extra files go too
     plot_results.plot_run(folder, results, force=True)
     export_checkpoint(checkpoint, targets.export, evaluation, overwrite=targets.export.exists())  # checked above
-    if (folder / "checkpoint.pt").exists() and folder.resolve() != run.path.resolve():
-        (folder / "checkpoint.pt").unlink()  # the parked state of this run: its export supersedes it
+    if (folder / CHECKPOINT).exists() and folder.resolve() != run.path.resolve():
+        (folder / CHECKPOINT).unlink()  # the parked state of this run: its export supersedes it
     if table:
         results_table.main(["--results", str(results), "--runs", str(results / "runs"), "--pretrained",
                             str(pretrained), "--out", str(results), "--force"])
@@ -240,7 +247,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     size = sum(f.stat().st_size for f in targets.export.iterdir())
     print(f"landed: {targets.run_folder}, {targets.evaluation}, export {targets.export} ({size:,} bytes)")
-    if (targets.run_folder / "checkpoint.pt").exists():  # trained in place: the run's own files stay untouched
+    if (targets.run_folder / CHECKPOINT).exists():  # trained in place: the run's own files stay untouched
         print(f"note: {targets.run_folder} was the run's own folder and keeps its checkpoint.pt; a finished run keeps "
               "only its export in git: `git rm --cached` it, or move it out of the tree")
     return 0
