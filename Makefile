@@ -24,9 +24,11 @@ $(STAMP): pyproject.toml
 	  assert int(numpy.__version__.split('.')[0]) >= 2, 'numpy was downgraded'"
 	touch $(STAMP)
 
+# One pytest worker per CPU (pytest-xdist), each test file on one worker so that its module fixtures are built once.
+TEST_WORKERS ?= auto
 test: install
 	$(PY) -m ruff check loco_mujoco baselines tests bench experiments
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadfile
 
 # A short VAIL training on UnitreeH1.walk (2 min 3 s on 2 cores), then its evaluation against a random policy.
 DEMO_STEPS ?= 500000

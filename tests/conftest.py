@@ -7,6 +7,12 @@ os.environ["LOCO_MUJOCO_CACHE"] = tempfile.mkdtemp(prefix="loco_mujoco_test_cach
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
+import torch  # noqa: E402
+
+# Under pytest-xdist (`make test` runs one worker per CPU) every worker gets one torch thread: two processes with
+# two threads each on two cores collapse torch's throughput (156 -> 4-40 updates/s measured here).
+if os.environ.get("PYTEST_XDIST_WORKER"):
+    torch.set_num_threads(1)
 
 import loco_mujoco as lm  # noqa: E402
 

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from loco_mujoco.atomic_write import atomic_write
 from loco_mujoco.datasets.motion import MotionFormatError
 
 FORMAT = "loco_mujoco.trajectories/1"
@@ -103,9 +104,7 @@ class TrajectoryDataset:
 
 def write_npz_deterministic(path: Path, arrays: dict[str, np.ndarray]) -> None:
     """``np.savez`` without timestamps: the same arrays always give the same bytes."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+    with atomic_write(path) as handle, zipfile.ZipFile(handle, "w", compression=zipfile.ZIP_DEFLATED) as zf:
         for name in sorted(arrays):
             buf = io.BytesIO()
             np.lib.format.write_array(buf, np.asarray(arrays[name]), allow_pickle=False)
@@ -113,7 +112,6 @@ def write_npz_deterministic(path: Path, arrays: dict[str, np.ndarray]) -> None:
             info.compress_type = zipfile.ZIP_DEFLATED
             info.external_attr = 0o644 << 16
             zf.writestr(info, buf.getvalue())
-    tmp.replace(path)
 
 
 def joint_layout(joint_names: tuple[str, ...]) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:

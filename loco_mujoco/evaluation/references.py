@@ -17,6 +17,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from loco_mujoco.atomic_write import atomic_write
 from loco_mujoco.evaluation.protocol import EPISODES, SEED, Policy, evaluation_task, run_episodes
 
 VERSION = 1  # bump when the reward, the protocol or a reference policy changes
@@ -143,10 +144,8 @@ def references(task: str, env_kwargs: dict[str, Any] | None = None, episodes: in
         env.stop()
         return References(**json.loads(path.read_text()))
     refs = compute_references(task, kwargs, episodes, seed, progress, env=env)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(asdict(refs), indent=1))
-    tmp.replace(path)
+    with atomic_write(path, "w") as handle:
+        handle.write(json.dumps(asdict(refs), indent=1))
     return refs
 
 

@@ -16,14 +16,13 @@ Slide values are offsets from the root body's XML position (:data:`OLD_ROOT_OFFS
 from __future__ import annotations
 
 import io
-import os
-import tempfile
 import zipfile
 from pathlib import Path
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from loco_mujoco.atomic_write import atomic_write
 from loco_mujoco.datasets.motion import Motion, MotionFormatError
 from loco_mujoco.rotations import axis_angle_quat, quat_mul
 
@@ -134,19 +133,13 @@ def root_coordinates(motion: Motion, root_offset: tuple[float, float, float] = (
 
 def _write_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
     """A stored (uncompressed) zip of ``.npy`` members with fixed timestamps, written atomically."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as handle, zipfile.ZipFile(handle, "w", zipfile.ZIP_STORED) as archive:
-            for key, arr in arrays.items():
-                buf = io.BytesIO()
-                np.lib.format.write_array(buf, np.ascontiguousarray(arr), allow_pickle=False)
-                info = zipfile.ZipInfo(f"{key}.npy", date_time=(1980, 1, 1, 0, 0, 0))
-                info.external_attr = 0o644 << 16
-                archive.writestr(info, buf.getvalue())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_write(path) as handle, zipfile.ZipFile(handle, "w", zipfile.ZIP_STORED) as archive:
+        for key, arr in arrays.items():
+            buf = io.BytesIO()
+            np.lib.format.write_array(buf, np.ascontiguousarray(arr), allow_pickle=False)
+            info = zipfile.ZipInfo(f"{key}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+            info.external_attr = 0o644 << 16
+            archive.writestr(info, buf.getvalue())
 
 
 def save_loco_npz(path: str | Path, motion: Motion, root_offset: tuple[float, float, float] = (0.0, 0.0, 0.0),
