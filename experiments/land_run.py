@@ -233,7 +233,8 @@ def main(argv: list[str] | None = None) -> int:
         run = read_run(args.run_dir)
         if args.park:
             folder = park(run, args.results, args.snapshots)
-            shown = os.path.relpath(folder) if not os.path.relpath(folder).startswith("..") else folder
+            relative = os.path.relpath(folder)
+            shown = folder if relative.startswith("..") else relative
             size = sum(f.stat().st_size for f in folder.rglob("*") if f.is_file())
             print(f"parked: {run.config.task} {run.config.algorithm} seed {run.config.seed} at {run.steps:,} of "
                   f"{run.config.train.n_steps:,} steps in {shown} ({size:,} bytes); continue with\n"
