@@ -28,6 +28,13 @@ TINY_TRAINING = {"env": {"horizon": 100},
                            "disc_hidden": [32], "disc_batch_size": 128, "train_disc_every": 1}}
 
 
+@pytest.fixture(autouse=True)
+def _seed_global_torch_rng():
+    """Each test starts from the same torch global RNG state, so its draws do not depend on which tests a
+    pytest-xdist worker happened to run before it."""
+    torch.manual_seed(0)
+
+
 @pytest.fixture(scope="session")
 def make_env():
     """Build each (name, kwargs) environment once per session; tests reset it before use."""

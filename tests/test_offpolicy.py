@@ -188,9 +188,10 @@ def test_actor_backward_matches_autograd(activation, backend):
     standardizer = RunningStandardizer(6)
     policy = TanhGaussianPolicy(np.ones(6, bool), 3, standardizer, (16, 8), activation,
                                 generator=torch.Generator().manual_seed(0))
+    g = torch.Generator().manual_seed(1)  # its own stream: the draws must not depend on which tests ran before
     with torch.no_grad():
-        policy.net[-2].weight.normal_(std=2.0)  # log-stds on both sides of [log_std_min, log_std_max]
-    x, noise, grad_action = torch.randn(10, 6), torch.randn(10, 3), torch.randn(6, 3)
+        policy.net[-2].weight.normal_(std=2.0, generator=g)  # log-stds on both sides of [log_std_min, log_std_max]
+    x, noise, grad_action = (torch.randn(shape, generator=g) for shape in ((10, 6), (10, 3), (6, 3)))
     with gemm.backend(backend):
         out, inputs = policy.forward_kept(x)
         raw_log_std = out[:, 3:]
