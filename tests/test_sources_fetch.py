@@ -79,6 +79,8 @@ def test_mirror_download_then_cache(isolated, monkeypatch):
         path = source_path(rel)
         assert path == isolated / "cache" / "sources" / rel
         assert sha256_of(path) == SOURCE_FILES[rel].sha256
+        assert path.stat().st_mode & 0o777 == 0o644  # readable by every user of a shared cache
+    assert not [p for p in (isolated / "cache").rglob(".*") if p.is_file()]  # no temporaries left behind
     monkeypatch.delenv("LOCO_MUJOCO_MIRROR")
     shutil.rmtree(isolated / "mirror")
     assert source_path(SMALL[0], allow_download=False, verify=True) == isolated / "cache" / "sources" / SMALL[0]

@@ -10,13 +10,12 @@ from __future__ import annotations
 import difflib
 import hashlib
 import os
-import shutil
-import tempfile
 import urllib.request
 from dataclasses import dataclass
 from pathlib import Path
 
 import loco_mujoco
+from loco_mujoco.atomic_write import atomic_write
 
 _RAW = "https://raw.githubusercontent.com"
 # Origins (SOURCES.md). Where the index of public repositories holds a copy of the same size at a full commit,
@@ -376,22 +375,21 @@ def _check(path: Path, relpath: str, expected: str) -> None:
 
 
 def _download(relpath: str, entry: SourceFile, target: Path) -> None:
-    """Fetch into a temp file next to ``target``, verify the hash, then rename atomically."""
+    """Stream ``entry`` into ``target`` through an atomic write, hashing as it arrives; a mismatch leaves nothing."""
     mirror = os.environ.get("LOCO_MUJOCO_MIRROR")
     url = f"{mirror.rstrip('/')}/{relpath}" if mirror else entry.url
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".part")
-    try:
-        with os.fdopen(fd, "wb") as out:
-            try:
-                with urllib.request.urlopen(url, timeout=60) as response:
-                    shutil.copyfileobj(response, out)
-            except OSError as err:
-                raise OSError(f"cannot download {relpath} from {url}: {err}") from err
-        _check(Path(tmp), relpath, entry.sha256)
-        os.replace(tmp, target)
-    finally:
-        Path(tmp).unlink(missing_ok=True)
+    digest = hashlib.sha256()
+    with atomic_write(target, "wb") as out:
+        try:
+            with urllib.request.urlopen(url, timeout=60) as response:
+                while chunk := response.read(1 << 20):
+                    digest.update(chunk)
+                    out.write(chunk)
+        except OSError as err:
+            raise OSError(f"cannot download {relpath} from {url}: {err}") from err
+        if digest.hexdigest() != entry.sha256:  # raised inside the write: the temporary is removed, target untouched
+            raise SourceHashError(f"{relpath} ({url}): sha256 {digest.hexdigest()} does not match the pinned "
+                                  f"{entry.sha256}")
 
 
 def source_path(relpath: str, allow_download: bool = True, verify: bool = False) -> Path:
