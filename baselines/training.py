@@ -45,6 +45,7 @@ from baselines.common.expert_data import ExpertData, kinematic_obs_mask
 from baselines.common.logger import CSVLogger
 from baselines.common.machine import MACHINES, record_machine
 from baselines.config import RunConfig
+from loco_mujoco.atomic_write import atomic_write
 from loco_mujoco.evaluation.protocol import evaluation_env
 from loco_mujoco.evaluation.references import references
 
@@ -323,9 +324,8 @@ class Trainer:
         buffered = hasattr(self.agent, "save_buffer")  # off-policy: the replay buffer beside the checkpoint
         if buffered:  # written in full first, then both files swapped in: a kill leaves a matching pair
             self.agent.save_buffer(self.out_dir / REPLAY_NEXT)
-        tmp = self.checkpoint_path.with_suffix(".tmp")
-        torch.save(self.state_dict(), tmp)
-        os.replace(tmp, self.checkpoint_path)
+        with atomic_write(self.checkpoint_path, "wb") as f:
+            torch.save(self.state_dict(), f)
         if buffered:
             os.replace(self.out_dir / REPLAY_NEXT, self.out_dir / REPLAY)
 

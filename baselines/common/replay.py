@@ -9,10 +9,11 @@ buffer file belongs to the checkpoint it is loaded with.
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
+
+from loco_mujoco.atomic_write import atomic_write
 
 _FIELDS = ("states", "actions", "next_states", "absorbing")
 
@@ -49,13 +50,10 @@ class ReplayBuffer:
     # ---- files ------------------------------------------------------------------------------------------
     def save(self, path: str | Path) -> None:
         """Write the valid rows and the counters to ``path`` (compressed ``.npz``; atomic: a temp file, then rename)."""
-        path = Path(path)
-        tmp = path.with_name(path.name + ".tmp")
         n = self.size
-        with tmp.open("wb") as f:
+        with atomic_write(path, "wb") as f:
             np.savez_compressed(f, **{name: getattr(self, name)[:n] for name in _FIELDS},
                                 counters=np.array([self.capacity, self.size, self.position, self.n_added], np.int64))
-        os.replace(tmp, path)
 
     def load(self, path: str | Path) -> None:
         """Replace the contents with those saved at ``path``; the dimensions and capacity must match."""
