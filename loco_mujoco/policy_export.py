@@ -34,6 +34,8 @@ from typing import Any
 import numpy as np
 import yaml
 
+from loco_mujoco.atomic_write import atomic_write
+
 WEIGHTS = "policy.safetensors"
 CARD = "card.json"
 CONFIG = "config.yaml"
@@ -204,7 +206,7 @@ def write_export(path: str | Path, layers: list[tuple[np.ndarray, np.ndarray]], 
     ``log_std``, a ``tanh_gaussian`` one ``log_std_bounds`` instead; ``obs_mask`` (bool over the env's
     observation) when the network sees only some entries. Refuses to replace an existing export unless
     ``overwrite``, and to write one over ``MAX_BYTES``."""
-    from safetensors.numpy import save_file
+    from safetensors.numpy import save
 
     path = Path(path)
     if (path / WEIGHTS).exists() and not overwrite:
@@ -231,7 +233,8 @@ def write_export(path: str | Path, layers: list[tuple[np.ndarray, np.ndarray]], 
     if size > MAX_BYTES:
         raise ExportError(f"the policy's arrays take {size:,} bytes, over the {MAX_BYTES:,} an export may hold")
     path.mkdir(parents=True, exist_ok=True)
-    save_file(tensors, str(path / WEIGHTS))
+    with atomic_write(path / WEIGHTS, "wb") as f:  # save_file's own writes left the weights 0600, private to one user
+        f.write(save(tensors))
     policy = {"activation": activation, "format": "loco_mujoco.policy/1"}
     if distribution == TANH_GAUSSIAN:  # Gaussian cards stay as they were before other distributions existed
         policy.update(distribution=distribution, log_std_min=float(log_std_bounds[0]),

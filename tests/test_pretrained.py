@@ -143,6 +143,8 @@ def test_offpolicy_agent_exports_and_reloads_with_the_same_actions(walk_env, tmp
     card = {"task": "UnitreeH1.walk.perfect", "algorithm": "lsiq", "seed": 0, "steps": 200, "env": {"horizon": 100},
             "evaluation": {}}
     export_agent(agent, tmp_path / "UnitreeH1.walk.perfect/lsiq/seed0", card, {"agent": SMALL})
+    weights = tmp_path / "UnitreeH1.walk.perfect/lsiq/seed0/policy.safetensors"
+    assert weights.stat().st_mode & 0o777 == 0o644  # readable by every user of a shared checkout
     policy = load("UnitreeH1.walk.perfect", "lsiq", root=tmp_path)
     assert policy.export.distribution == "tanh_gaussian" and policy.card["policy"]["log_std_min"] == -5.0
     assert (policy.obs_dim, policy.act_dim) == (33, 11) and policy.export.obs_index[0] == 1
