@@ -369,9 +369,13 @@ def _lookup(relpath: str) -> SourceFile:
 
 
 def _check(path: Path, relpath: str, expected: str) -> None:
-    actual = sha256_of(path)
+    _require_hash(sha256_of(path), relpath, path, expected)
+
+
+def _require_hash(actual: str, relpath: str, where: Path | str, expected: str) -> None:
+    """Raise ``SourceHashError`` naming the file, where its bytes came from, and both hashes, unless they match."""
     if actual != expected:
-        raise SourceHashError(f"{relpath} ({path}): sha256 {actual} does not match the pinned {expected}")
+        raise SourceHashError(f"{relpath} ({where}): sha256 {actual} does not match the pinned {expected}")
 
 
 def _download(relpath: str, entry: SourceFile, target: Path) -> None:
@@ -387,9 +391,8 @@ def _download(relpath: str, entry: SourceFile, target: Path) -> None:
                     out.write(chunk)
         except OSError as err:
             raise OSError(f"cannot download {relpath} from {url}: {err}") from err
-        if digest.hexdigest() != entry.sha256:  # raised inside the write: the temporary is removed, target untouched
-            raise SourceHashError(f"{relpath} ({url}): sha256 {digest.hexdigest()} does not match the pinned "
-                                  f"{entry.sha256}")
+        # raised inside the write: the temporary is removed, the target untouched
+        _require_hash(digest.hexdigest(), relpath, url, entry.sha256)
 
 
 def source_path(relpath: str, allow_download: bool = True, verify: bool = False) -> Path:
