@@ -16,8 +16,8 @@ import argparse
 import numpy as np
 
 from loco_mujoco import LocoEnv
-from loco_mujoco.evaluation.protocol import SEED, Policy, run_episodes
-from loco_mujoco.evaluation.references import hold_pose_policy
+from loco_mujoco.evaluation.protocol import SEED, Policy, evaluation_env, run_episodes
+from loco_mujoco.evaluation.references import hold_pose_policy, zero_policy
 
 EXCITATIONS = (0.0, 0.05, 0.1, 0.2, 0.3, 0.5)
 NOISE_STDS = (0.0, 0.5)  # 0.5: std_0 of the adversarial policies (configs/defaults.yaml)
@@ -33,9 +33,8 @@ def constant_excitation(n_actions: int, excitation: float, noise_std: float, see
 def summary(env: LocoEnv, policy: Policy, episodes: int) -> str:
     """Mean episode length and return of ``policy`` over the protocol's first ``episodes`` start states."""
     evaluation = run_episodes(env, policy, n_episodes=episodes, seed=SEED)
-    lengths = np.array([len(e.rewards) for e in evaluation.episodes])
-    returns = np.array([e.rewards.sum() for e in evaluation.episodes])
-    return f"L {lengths.mean():6.1f} (min {lengths.min():4d}, max {lengths.max():4d})  R {returns.mean():6.1f}"
+    lengths, returns = evaluation.lengths, evaluation.returns
+    return f"L {lengths.mean():6.1f} (min {lengths.min():4.0f}, max {lengths.max():4.0f})  R {returns.mean():6.1f}"
 
 
 def main() -> None:
@@ -43,7 +42,7 @@ def main() -> None:
     parser.add_argument("--task", default="HumanoidMuscle.walk")
     parser.add_argument("--episodes", type=int, default=10)
     args = parser.parse_args()
-    env = LocoEnv.make(args.task, random_start=True, seed=SEED)
+    env = evaluation_env(args.task)
     if env.control != "muscle":
         raise SystemExit(f"{args.task} is driven by '{env.control}', not muscles; pass a HumanoidMuscle task")
     n = env.info.action_space.shape[0]
@@ -54,7 +53,7 @@ def main() -> None:
             print(f"  excitation {excitation:4.2f}, noise std {noise:3.1f}: {summary(env, policy, args.episodes)}")
     print(f"  stretch-reflex hold:             {summary(env, hold_pose_policy(env), args.episodes)}")
     home = LocoEnv.make(args.task, random_start=False, seed=SEED)
-    print(f"from the home pose: zero action (half excitation): {summary(home, lambda obs: np.zeros(n), 1)}")
+    print(f"from the home pose: zero action (half excitation): {summary(home, zero_policy(home), 1)}")
     print(f"                    stretch-reflex hold:           {summary(home, hold_pose_policy(home), 1)}")
 
 
