@@ -247,11 +247,13 @@ def profile_run(env: lm.LocoEnv, variant: Variant, warmup: int, steps: int) -> N
 
 # ---- off-policy ------------------------------------------------------------------------------------------
 OFF_ENV = "UnitreeH1.walk.perfect"
-OFF_VARIANTS = ("sqil", "iq_learn", "lsiq", "sac", "iq_learn:1", "lsiq:1", "sqil:1")
-# "<algo>:1": one critic instead of SAC's two, as the IQ-Learn and LS-IQ reference implementations have it
+OFF_VARIANTS = ("sqil", "iq_learn", "lsiq", "sac", "iq_learn:1", "lsiq:1", "sqil:1", "sqil:ln", "iq_learn:ln")
+# "<algo>:1": one critic instead of SAC's two, as the IQ-Learn and LS-IQ reference implementations have it;
+# "<algo>:ln": twin critics with LayerNorm in their hidden layers (agent.critic_layer_norm)
 OFF_LABELS = {"sqil": "ours, SQIL", "iq_learn": "ours, IQ-Learn", "lsiq": "ours, LS-IQ",
               "sac": "Mushroom-RL SAC (unmodified)", "iq_learn:1": "ours, IQ-Learn, 1 critic",
-              "lsiq:1": "ours, LS-IQ, 1 critic", "sqil:1": "ours, SQIL, 1 critic"}
+              "lsiq:1": "ours, LS-IQ, 1 critic", "sqil:1": "ours, SQIL, 1 critic",
+              "sqil:ln": "ours, SQIL, critic LayerNorm", "iq_learn:ln": "ours, IQ-Learn, critic LayerNorm"}
 HIDDEN, BATCH, ACTOR_LR, CRITIC_LR, TAU = (256, 256), 256, 3e-5, 3e-4, 0.005
 
 
@@ -279,11 +281,12 @@ def build_offpolicy(env: lm.LocoEnv, variant: str, warmup: int) -> tuple[Core, f
                     batch_size=2 * BATCH, initial_replay_size=warmup, max_replay_size=1_000_000,
                     warmup_transitions=warmup, tau=TAU, lr_alpha=3e-4, log_std_min=-5, log_std_max=2)
     else:
-        algo, _, n_critics = variant.partition(":")
+        algo, _, critics = variant.partition(":")
         agent = make_agent(algo, env, {"actor_hidden": HIDDEN, "critic_hidden": HIDDEN, "batch_size": BATCH,
                                        "actor_lr": ACTOR_LR, "critic_lr": CRITIC_LR, "tau": TAU,
                                        "initial_samples": warmup + 1, "n_threads": torch.get_num_threads(),
-                                       "n_critics": int(n_critics or 2)},
+                                       "n_critics": 1 if critics == "1" else 2,
+                                       "critic_layer_norm": critics == "ln"},
                            seed=0)
     env.seed(0)
     core = Core(agent, env)

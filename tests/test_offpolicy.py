@@ -117,6 +117,14 @@ def test_sqil_rewards_are_one_for_expert_and_zero_for_agent_samples(env):
     loss, _ = sqil_loss(batch)
     expected = sum(((q[j] - rewards - 0.99 * (1 - absorbing) * next_v) ** 2).mean() for j in range(2))
     assert loss.item() == pytest.approx(expected.item(), rel=1e-5)
+    # clipped targets: V'(s') within [0, 1 / (1 - gamma)] = [0, 100], whatever the critics say
+    wild = CriticBatch(q=q, v=q, next_v=next_v * 500.0, absorbing=torch.zeros(2 * b), n_agent=b, gamma=0.99)
+    assert (wild.next_v.abs() > 100).any() and (wild.next_v < 0).any()
+    loss, stats = sqil_loss(wild, clip_targets=True)
+    clipped = rewards + 0.99 * (next_v * 500.0).clamp(0.0, 100.0)
+    expected = sum(((q[j] - clipped) ** 2).mean() for j in range(2))
+    assert loss.item() == pytest.approx(expected.item(), rel=1e-5)
+    assert 0.0 <= stats["td_target"].item() <= 100.0
 
 
 def test_iq_learn_loss_modes_differ(env):
@@ -129,10 +137,11 @@ def test_iq_learn_loss_modes_differ(env):
     assert losses["value"] != losses["v0"]
 
 
+@pytest.mark.parametrize("layer_norm", [False, True])
 @pytest.mark.parametrize("backend", ["onednn", "torch"])
 @pytest.mark.parametrize("activation", ["relu", "tanh"])
-def test_actor_gradient_through_the_critics_matches_autograd(activation, backend):
-    critic = TwinCritic(5, 3, (16, 8), activation, generator=torch.Generator().manual_seed(1))
+def test_actor_gradient_through_the_critics_matches_autograd(activation, backend, layer_norm):
+    critic = TwinCritic(5, 3, (16, 8), activation, generator=torch.Generator().manual_seed(1), layer_norm=layer_norm)
     with torch.no_grad():
         critic.weights[-1].normal_()
     x, a, grad_q = torch.randn(7, 5), torch.randn(7, 3, requires_grad=True), torch.randn(2, 7)
@@ -151,8 +160,9 @@ def test_actor_gradient_through_the_critics_matches_autograd(activation, backend
     (3, 9, 6),  # leading rows without loss (LS-IQ: the agent's Q(s, a))
     (0, 6, 6),  # the actor's rows outside the loss's (SQIL): each down its own critic
     (0, 12, 0)])
-def test_critic_backward_matches_autograd(activation, loss_start, n_loss, n_actions, backend):
-    critic = TwinCritic(5, 3, (16, 8), activation, generator=torch.Generator().manual_seed(1))
+@pytest.mark.parametrize("layer_norm", [False, True])
+def test_critic_backward_matches_autograd(activation, loss_start, n_loss, n_actions, backend, layer_norm):
+    critic = TwinCritic(5, 3, (16, 8), activation, generator=torch.Generator().manual_seed(1), layer_norm=layer_norm)
     with torch.no_grad():
         critic.weights[-1].normal_()
         for bias in critic.biases:
@@ -242,7 +252,9 @@ def autograd_update(agent):
 
 @pytest.mark.parametrize(("algorithm", "extra"), [("sqil", {}), ("iq_learn", {}), ("lsiq", {"learn_alpha": True}),
                                                    ("iq_learn", {"loss_mode": "v0", "activation": "tanh"}),
-                                                   ("iq_learn", {"n_critics": 1}), ("lsiq", {"n_critics": 1})])
+                                                   ("iq_learn", {"n_critics": 1}), ("lsiq", {"n_critics": 1}),
+                                                   ("sqil", {"critic_layer_norm": True, "clip_targets": True}),
+                                                   ("iq_learn", {"critic_layer_norm": True})])
 def test_update_matches_the_autograd_update(env, algorithm, extra):
     agent = make_agent(algorithm, env, config={**SMALL, **extra}, seed=0)
     learn(agent, env, 150)  # the optimisers' states exist

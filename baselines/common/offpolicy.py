@@ -69,6 +69,7 @@ class OffPolicyConfig(AgentConfig):
     n_critics: int = 2  # SAC's min over 2 critics against overestimation; configs/defaults.yaml gives LS-IQ 1
     # (its clipped targets bound Q; 1.5-1.7x faster updates)
     activation: str = "relu"
+    critic_layer_norm: bool = False  # LayerNorm in the critics' hidden layers: bounds how far Q can extrapolate
     actor_lr: float = 3e-5
     critic_lr: float = 3e-4
     batch_size: int = 256  # agent transitions per update; as many expert transitions are added
@@ -188,7 +189,7 @@ class OffPolicyImitation(Agent):
         policy = TanhGaussianPolicy(obs_mask, act_dim, self.obs_standardizer, config.actor_hidden, config.activation,
                                     config.log_std_min, config.log_std_max, seed=seeds[2], generator=self._generator)
         self.critic = TwinCritic(obs_dim, act_dim, config.critic_hidden, config.activation, n=config.n_critics,
-                                 generator=self._generator)
+                                 generator=self._generator, layer_norm=config.critic_layer_norm)
         self.target_critic = self.critic.make_target()
         self.actor_optimizer = torch.optim.Adam(policy.parameters(), lr=config.actor_lr, fused=True)
         self.critic_optimizer = torch.optim.Adam(self.critic.parameters(), lr=config.critic_lr, fused=True)

@@ -14,6 +14,12 @@ alone.
 
 Weights use normc like :func:`~baselines.common.networks.build_mlp` (hidden 1.0, output 1e-3), drawn from an
 explicit generator.
+
+With ``layer_norm`` every hidden layer is ``act(LN(W h + b))``, LN without learned scale or shift (the next layer's
+weights carry them): a row's features then have norm at most ``sqrt(width)``, so a value cannot extrapolate beyond
+``|w_out| sqrt(width) + b_out`` on states and actions no data pins down. That is what keeps the critics of the
+imitation learners, trained on half expert transitions whose policy actions are never executed, from diverging
+(Ball et al., 2023, "Efficient online RL with offline data", the same symmetric expert/agent sampling).
 """
 
 from __future__ import annotations
@@ -28,19 +34,21 @@ from baselines.common import gemm
 from baselines.common.networks import normc_
 
 _ACTIVATIONS = {"relu": torch.relu_, "tanh": torch.tanh_}  # in place on the fresh pre-activations
+_LN_EPS = 1e-5  # torch.nn.LayerNorm's
 
 
 class TwinCritic(nn.Module):
     """``n`` critics on ``x = [s, a]``; ``forward(x)`` -> ``(n, N)`` values."""
 
     def __init__(self, obs_dim: int, act_dim: int, hidden: Sequence[int] = (256, 256), activation: str = "relu",
-                 n: int = 2, generator: torch.Generator | None = None):
+                 n: int = 2, generator: torch.Generator | None = None, layer_norm: bool = False):
         super().__init__()
         if activation not in _ACTIVATIONS:
             raise ValueError(f"unknown critic activation {activation!r}; valid: {', '.join(_ACTIVATIONS)}")
         if not hidden:
             raise ValueError("the critic needs at least one hidden layer")
-        self.n, self.obs_dim, self.activation = int(n), int(obs_dim), activation
+        self.n, self.obs_dim, self.activation, self.layer_norm = int(n), int(obs_dim), activation, bool(layer_norm)
+        self._n_hidden = len(hidden)
         sizes = [obs_dim + act_dim, *hidden, 1]
         weights, biases = [], []
         for i in range(len(sizes) - 1):
@@ -58,17 +66,24 @@ class TwinCritic(nn.Module):
 
     def forward(self, x: torch.Tensor, keep: bool = False) -> tuple[torch.Tensor, list[list[torch.Tensor]]]:
         """``(values, hidden)``: every critic's value of each row of ``x = [s, a]`` (``(N, obs_dim + act_dim)`` ->
-        ``(n, N)``) and, with ``keep``, the hidden activations (``hidden[layer][j]``: critic ``j``'s, ``(N, width)``).
+        ``(n, N)``) and, with ``keep``, the hidden activations (``hidden[layer][j]``: critic ``j``'s, ``(N, width)``;
+        with ``layer_norm`` followed by each layer's normalised pre-activations and ``(N, 1)`` inverse deviations).
         Critic by critic, each layer one product with its bias (and ReLU) fused (:func:`~baselines.common.gemm.linear`);
         the last layer one matrix-vector product per critic."""
-        relu = self.activation == "relu"
-        hidden = [[] for _ in self._weights[:-1]]
+        relu = self.activation == "relu" and not self.layer_norm
+        n_hidden = self._n_hidden
+        hidden = [[] for _ in range(3 * n_hidden if self.layer_norm else n_hidden)]
         values = []
         for j in range(self.n):
             h = x
             for i, (weight, bias) in enumerate(zip(self._weights[:-1], self._biases[:-1], strict=True)):
                 h = gemm.linear(h, weight[j].t(), bias[j, 0], relu=relu)
-                if not relu:
+                if self.layer_norm:
+                    h, _, inv_std = torch.ops.aten.native_layer_norm(h, [h.shape[1]], None, None, _LN_EPS)
+                    hidden[n_hidden + i].append(h)
+                    hidden[2 * n_hidden + i].append(inv_std)
+                    h = torch.relu(h) if self.activation == "relu" else torch.tanh(h)
+                elif not relu:
                     h = _ACTIVATIONS[self.activation](h)
                 hidden[i].append(h)
             values.append(torch.mv(h, self._weights[-1][j, :, 0]))
@@ -104,18 +119,18 @@ class TwinCritic(nn.Module):
             for j in range(self.n):
                 c = grad_values[j]
                 kept = [h[j][start:stop] for h in hidden]
+                last = self._n_hidden - 1
                 # as c^T h: the matrix-vector product reads h along its rows
-                torch.mv(kept[-1][loss].t(), c, out=weight_grads[-1][j, :, 0])
+                torch.mv(kept[last][loss].t(), c, out=weight_grads[-1][j, :, 0])
                 bias_grads[-1][j] = c.sum()
-                p = self._activation_backward(weights[-1][j, :, 0], kept[-1])  # dQ/dz of the last hidden layer
-                for i in range(len(kept) - 1, -1, -1):
+                p = self._hidden_backward(weights[-1][j, :, 0], kept, last)  # dQ/dz of the last hidden layer
+                for i in range(last, -1, -1):
                     below = kept[i - 1] if i else x[start:stop]
                     p_loss = p[loss]
                     weight_grads[i][j] = gemm.mm((below[loss] * c.unsqueeze(1)).t(), p_loss)
                     torch.mv(p_loss.t(), c, out=bias_grads[i][j, 0])
                     if i:
-                        p = gemm.linear(p, weights[i][j])
-                        self._activation_backward(p, kept[i - 1], out=p)
+                        p = self._hidden_backward(gemm.linear(p, weights[i][j]), kept, i - 1, inplace=True)
                 if shared:
                     action_grads.append(gemm.mm(p[p.shape[0] - n_actions:], weights[0][j, self.obs_dim:].t()))
             for param, grad in zip(weights + biases, weight_grads + bias_grads, strict=True):
@@ -140,10 +155,9 @@ class TwinCritic(nn.Module):
                 continue
             rows = index + first
             kept = [h[j].index_select(0, rows) for h in hidden]
-            p = self._activation_backward(weights[-1][j, :, 0], kept[-1])
-            for i in range(len(kept) - 1, 0, -1):
-                p = gemm.linear(p, weights[i][j])
-                self._activation_backward(p, kept[i - 1], out=p)
+            p = self._hidden_backward(weights[-1][j, :, 0], kept, self._n_hidden - 1)
+            for i in range(self._n_hidden - 1, 0, -1):
+                p = self._hidden_backward(gemm.linear(p, weights[i][j]), kept, i - 1, inplace=True)
             grad.index_copy_(0, index, gemm.mm(p, weights[0][j, self.obs_dim:].t()).mul_(scale))
         return grad
 
@@ -154,12 +168,31 @@ class TwinCritic(nn.Module):
         with torch.no_grad():
             total = None
             for j in range(self.n):
-                grad = self._activation_backward(grad_values[j].unsqueeze(1) * weights[-1][j, :, 0], hidden[-1][j])
-                for i in range(len(hidden) - 1, 0, -1):
-                    grad = self._activation_backward(gemm.linear(grad, weights[i][j]), hidden[i - 1][j])
+                kept = [h[j] for h in hidden]
+                grad = self._hidden_backward(grad_values[j].unsqueeze(1) * weights[-1][j, :, 0], kept,
+                                             self._n_hidden - 1)
+                for i in range(self._n_hidden - 1, 0, -1):
+                    grad = self._hidden_backward(gemm.linear(grad, weights[i][j]), kept, i - 1)
                 grad = gemm.mm(grad, weights[0][j, self.obs_dim:].t())
                 total = grad if total is None else total.add_(grad)
             return total
+
+    def _hidden_backward(self, grad: torch.Tensor, kept: Sequence[torch.Tensor], layer: int,
+                         inplace: bool = False) -> torch.Tensor:
+        """The gradient w.r.t. hidden layer ``layer``'s pre-activation ``z`` (``W h + b``) from ``grad`` w.r.t. its
+        activation, for one critic's ``kept`` tensors (as :meth:`forward` keeps them). ``inplace``: ``grad`` is
+        a fresh ``(N, width)`` tensor that may be overwritten. Through LN: ``dz = (g - mean(g) - z^ mean(g z^)) / sd``
+        with ``g`` the gradient w.r.t. the normalised ``z^``."""
+        if not self.layer_norm:
+            return self._activation_backward(grad, kept[layer], out=grad if inplace else None)
+        n = self._n_hidden
+        normalised, inv_std = kept[n + layer], kept[2 * n + layer]
+        if self.activation == "relu":  # relu(z^) > 0 exactly where z^ > 0
+            g = torch.ops.aten.threshold_backward(grad, normalised, 0.0)
+        else:
+            g = torch.ops.aten.tanh_backward(grad, kept[layer])
+        projection = (g * normalised).mean(1, keepdim=True)
+        return g.sub_(g.mean(1, keepdim=True)).sub_(normalised * projection).mul_(inv_std)
 
     def _activation_backward(self, grad: torch.Tensor, h: torch.Tensor,
                              out: torch.Tensor | None = None) -> torch.Tensor:

@@ -8,6 +8,11 @@ from batches that are half expert, half agent. Each critic ``j`` minimises the s
 
 with ``V'(s') = min_j Qt_j(s', a') - alpha log pi(a'|s')`` from the target critics; the actor is SAC's. The
 agent is drawn back towards the expert's states, where the reward is, and its own transitions' values decay.
+
+With ``clip_targets``, ``V'(s')`` is clipped to ``[0, 1 / (1 - gamma)]``, the values rewards of 0 and 1 allow (as
+LS-IQ clips to its bounds; the entropy term, ``alpha |log pi| / (1 - gamma)`` at most ~5 with alpha 1e-3, is left
+out of the bound). Without it the critics of SQIL diverged on real motion capture: ``q_expert`` 326 after 10k
+updates and 718,000 after 90k on Talos.walk, with twin critics (results/README.md, 2026-11-29).
 """
 
 from __future__ import annotations
@@ -21,7 +26,9 @@ from baselines.common.offpolicy import CriticBatch, OffPolicyConfig, OffPolicyIm
 
 @dataclass
 class SQILConfig(OffPolicyConfig):
-    """SQIL has no hyperparameters of its own: those of the off-policy loop."""
+    """SQIL's one switch of its own, on top of the off-policy loop's hyperparameters."""
+
+    clip_targets: bool = False  # clip V'(s') to the values rewards in [0, 1] allow (module docstring)
 
 
 def sqil_rewards(batch: CriticBatch) -> torch.Tensor:
@@ -30,9 +37,10 @@ def sqil_rewards(batch: CriticBatch) -> torch.Tensor:
     return (torch.arange(n) >= batch.n_agent).to(batch.q.dtype)
 
 
-def sqil_loss(batch: CriticBatch) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
+def sqil_loss(batch: CriticBatch, clip_targets: bool = False) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
     """The SQIL critic loss (module docstring), summed over the critics."""
-    target = sqil_rewards(batch) + batch.gamma * (1.0 - batch.absorbing) * batch.next_v
+    next_v = batch.next_v.clamp(0.0, 1.0 / (1.0 - batch.gamma)) if clip_targets else batch.next_v
+    target = sqil_rewards(batch) + batch.gamma * (1.0 - batch.absorbing) * next_v
     loss = (batch.q - target).square().mean(1).sum()
     return loss, {"td_target": target.mean()}
 
@@ -44,4 +52,4 @@ class SQIL(OffPolicyImitation):
     uses_policy_values = False
 
     def critic_loss(self, batch: CriticBatch) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
-        return sqil_loss(batch)
+        return sqil_loss(batch, self.config.clip_targets)
