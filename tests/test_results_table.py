@@ -164,6 +164,35 @@ def test_perfect_data_superseded_seeds_and_runs_without_evaluation(dirs):
     assert "In all: 3 runs, 0.2 core-hours of learning." in compute_lines(list(rows.values()))
 
 
+def test_a_row_whose_critic_passed_its_bound_says_critic_diverged(dirs):
+    results, runs = dirs
+
+    def run(name, task, algo, q_expert, agent=None):
+        folder = runs / name
+        folder.mkdir()
+        (folder / "config.yaml").write_text(yaml.safe_dump({"task": task, "algorithm": algo, "seed": 0,
+                                                            "env": {"gamma": 0.99}, "agent": agent or {},
+                                                            "train": {"n_steps": 500_000}}))
+        lines = [f"{20_000 * (i + 1)},{i + 1},30,{q}" for i, q in enumerate(q_expert)]
+        (folder / "progress.csv").write_text("step,epoch,train_steps_per_s,q_expert\n" + "\n".join(lines) + "\n")
+
+    run("Talos.walk_sqil", "Talos.walk", "sqil", [30.0, 326.0, 718_000.0])  # bound 100: diverged
+    run("Atlas.walk_sqil", "Atlas.walk", "sqil", [30.0, 95.0, 120.0])  # within 1.25 x 100
+    run("Atlas.walk_lsiq", "Atlas.walk", "lsiq", [190.0, 240.0], agent={"reg_mult": 0.5})  # bound 200: within
+    run("Talos.walk_lsiq", "Talos.walk", "lsiq", [190.0, 600.0], agent={"reg_mult": 1.0})  # bound 100: diverged
+    run("Atlas.walk_gaifo", "Atlas.walk", "gaifo", [1e9])  # on-policy: no critic bound
+    write_eval(results, "Talos.walk", "lsiq", 0, np.full(10, 116.0), steps=40_000, stem="Talos.walk_lsiq")
+    rows, _ = table(results, runs)
+    sqil = rows["Talos.walk", "sqil"]
+    assert sqil.status == IN_PROGRESS
+    assert sqil.notes[-1] == ("critic diverged: q_expert reached 7.18e+05 in size (at 60k), above 1.25 x its bound "
+                              "100 (rewards in [0, 1])")
+    lsiq = rows["Talos.walk", "lsiq"]  # an evaluated row: the note beside its figures
+    assert lsiq.status == "ok" and any(n.startswith("critic diverged: q_expert reached 600") for n in lsiq.notes)
+    for key in (("Atlas.walk", "sqil"), ("Atlas.walk", "lsiq"), ("Atlas.walk", "gaifo")):
+        assert not any("critic diverged" in n for n in rows[key].notes), key
+
+
 def test_each_row_names_the_control_its_agents_act_in(dirs):
     results, runs = dirs
     write_eval(results, "Atlas.walk", "vail", 0, np.full(10, 68.0), refs={"env_settings": {"control": "'pd'"}})
