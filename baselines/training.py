@@ -173,8 +173,8 @@ class Trainer:
     ``run.init_from``. ``n_threads`` replaces a resumed run's torch thread count (results then match the
     uninterrupted run only to floating-point reduction order). ``on_progress(steps)``, if given, hears the steps
     done so far after every fit (gradient steps: every 100), e.g. to show a sweep's trials live;
-    ``on_evaluation(steps, figures)`` hears each epoch's evaluation, and what it returns (a line, or None) is printed
-    above the progress bar.
+    ``on_evaluation(steps, figures)`` hears each epoch's evaluation (with the agent's update statistics beside it,
+    e.g. ``q_expert``), and what it returns (a line, or None) is printed above the progress bar.
     """
 
     def __init__(self, run: RunConfig, out_dir: str | Path, resume: bool = False, progress: bool = True,
@@ -262,7 +262,8 @@ class Trainer:
                 every = run.train.snapshot_every
                 if every and self.steps // every > (self.steps - n) // every:  # this epoch passed a multiple
                     self.snapshot(last_eval)
-                line = self.on_evaluation(self.steps, last_eval) if self.on_evaluation is not None else None
+                line = (self.on_evaluation(self.steps, {**stats, **last_eval}) if self.on_evaluation is not None
+                        else None)
                 if line:
                     self._bar.write(line)
                 self._bar.set_postfix(score=f"{last_eval['score']:.1f}", L=f"{last_eval['L']:.0f}",

@@ -44,6 +44,15 @@ def value_peak(log: Path) -> tuple[float, int] | None:
     return abs(peak["q_expert"]), int(peak["step"])
 
 
+def divergence_warning(algorithm: str, config: dict[str, Any], q_expert: float | None) -> str | None:
+    """A warning line for a training run whose latest ``q_expert`` passed ``SLACK`` times its bound, else None."""
+    bound = value_bound(algorithm, config)
+    if bound is None or q_expert is None or not abs(q_expert) > SLACK * bound[0]:
+        return None
+    return (f"warning: the critics' value of expert transitions is {q_expert:.3g}, above {SLACK:g} x its bound "
+            f"{bound[0]:g} ({bound[1]}): the critic is diverging")
+
+
 def divergence_note(algorithm: str, config: dict[str, Any], log: Path) -> str | None:
     """"critic diverged: ..." where the log's values passed ``SLACK`` times the algorithm's bound, else None."""
     bound = value_bound(algorithm, config)

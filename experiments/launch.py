@@ -28,6 +28,7 @@ from baselines.config import (  # noqa: E402
     parse_overrides,
 )
 from baselines.training import Trainer  # noqa: E402
+from experiments.critic_values import divergence_warning  # noqa: E402
 from experiments.reported_curves import comparison_line, reported_curve  # noqa: E402
 
 
@@ -97,8 +98,15 @@ def _note(text: str) -> None:
 def _compare_with_reported(run: Any) -> Callable[[int, dict[str, float]], str]:
     """At every evaluation: this run's score and L beside our reported run's at the same step count
     (``results/runs``, :mod:`reported_curves`)."""
-    curve = reported_curve(run.task, run.algorithm, config=run.to_dict())
-    return lambda steps, figures: comparison_line(run.task, run.algorithm, steps, figures, curve)
+    config = run.to_dict()
+    curve = reported_curve(run.task, run.algorithm, config=config)
+
+    def line(steps: int, figures: dict[str, float]) -> str:
+        text = comparison_line(run.task, run.algorithm, steps, figures, curve)
+        warning = divergence_warning(run.algorithm, config, figures.get("q_expert"))
+        return f"{text}\n{warning}" if warning else text
+
+    return line
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -291,3 +291,15 @@ def test_a_card_fills_a_seed_without_an_evaluation_file(dirs, tmp_path):
     assert "card summary only" in vail.notes[-1] and vail.budgets[0].steps == 3_000_000
     gaifo = rows["Talos.walk", "gaifo"]
     assert gaifo.figures["score"] == pytest.approx(10.0) and gaifo.results[0].card_summary is None
+
+
+def test_divergence_warning_while_training():
+    from experiments.critic_values import divergence_warning
+
+    config = {"env": {"gamma": 0.99}, "agent": {"reg_mult": 0.5}}
+    warning = divergence_warning("sqil", config, 326.0)
+    assert warning.startswith("warning: the critics' value of expert transitions is 326")
+    assert divergence_warning("sqil", config, 110.0) is None  # within 1.25 x 100 (soft values' entropy term)
+    assert divergence_warning("lsiq", config, 240.0) is None and divergence_warning("lsiq", config, 260.0)
+    assert divergence_warning("iq_learn", config, -2e3) and divergence_warning("iq_learn", config, 900.0) is None
+    assert divergence_warning("vail", config, 1e9) is None and divergence_warning("sqil", config, None) is None
