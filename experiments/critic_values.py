@@ -44,10 +44,18 @@ def value_peak(log: Path) -> tuple[float, int] | None:
     return abs(peak["q_expert"]), int(peak["step"])
 
 
+def bound_passed(algorithm: str, config: dict[str, Any], value: float | None) -> tuple[float, str] | None:
+    """:func:`value_bound` where ``|value|`` passed ``SLACK`` times it, else None."""
+    bound = value_bound(algorithm, config)
+    if bound is None or value is None or not abs(value) > SLACK * bound[0]:
+        return None
+    return bound
+
+
 def divergence_warning(algorithm: str, config: dict[str, Any], q_expert: float | None) -> str | None:
     """A warning line for a training run whose latest ``q_expert`` passed ``SLACK`` times its bound, else None."""
-    bound = value_bound(algorithm, config)
-    if bound is None or q_expert is None or not abs(q_expert) > SLACK * bound[0]:
+    bound = bound_passed(algorithm, config, q_expert)
+    if bound is None:
         return None
     return (f"warning: the critics' value of expert transitions is {q_expert:.3g}, above {SLACK:g} x its bound "
             f"{bound[0]:g} ({bound[1]}): the critic is diverging")
@@ -55,9 +63,11 @@ def divergence_warning(algorithm: str, config: dict[str, Any], q_expert: float |
 
 def divergence_note(algorithm: str, config: dict[str, Any], log: Path) -> str | None:
     """"critic diverged: ..." where the log's values passed ``SLACK`` times the algorithm's bound, else None."""
-    bound = value_bound(algorithm, config)
+    if value_bound(algorithm, config) is None:  # no critic: the log is not read
+        return None
     peak = value_peak(log)
-    if bound is None or peak is None or peak[0] <= SLACK * bound[0]:
+    bound = bound_passed(algorithm, config, peak[0] if peak else None)
+    if bound is None:
         return None
     return (f"critic diverged: q_expert reached {peak[0]:.3g} in size (at {format_steps(peak[1])}), above "
             f"{SLACK:g} x its bound {bound[0]:g} ({bound[1]})")

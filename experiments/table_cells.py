@@ -187,7 +187,7 @@ def build_cells(inputs: Inputs, results_dir: Path, runs_dir: Path) -> list[Cell]
                 if did_not_learn(cell):
                     cell.notes.insert(0, DID_NOT_LEARN)
             else:
-                _empty(cell, inputs.runs, runs_dir)
+                _empty(cell, inputs.runs)
             cells.append(cell)
     return cells
 
@@ -198,7 +198,7 @@ def did_not_learn(cell: Cell) -> bool:
     return cell.status == OK and (lo is None or not math.isfinite(lo) or lo <= 0.0)
 
 
-def _empty(cell: Cell, runs: list[TrainingRun], runs_dir: Path) -> None:
+def _empty(cell: Cell, runs: list[TrainingRun]) -> None:
     """A row without an evaluation: a run in progress, n/a or not run."""
     mine = [r for r in runs if r.algorithm == cell.algorithm and r.task in (cell.task, f"{cell.task}.perfect")]
     cell.control = _modes([(r.task, r.control) for r in mine] or [(cell.task, committed_control(cell))])
@@ -210,26 +210,24 @@ def _empty(cell: Cell, runs: list[TrainingRun], runs_dir: Path) -> None:
             where = (f"at {format_steps(r.budget.steps)} of {format_steps(r.planned_steps)}" if r.unfinished
                      else f"at {format_steps(r.budget.steps)}")
             cell.notes.append(f"seed {r.seed}{data}: {r.directory} {where}, no evaluation file")
-        _note_divergence(cell, [r.budget for r in mine], runs_dir.parent, runs_dir)
+        _note_divergence(cell, [r.budget for r in mine])
     elif expert_actions_unavailable(cell.task, cell.algorithm):
         cell.status = NO_ACTIONS
 
 
-def _note_divergence(cell: Cell, budgets: list[Budget], results_dir: Path, runs_dir: Path) -> None:
+def _note_divergence(cell: Cell, budgets: list[Budget]) -> None:
     """A "critic diverged" note per seed whose training log passed its critic's bound
-    (:mod:`experiments.critic_values`); the run directory's config where the log has one, else the committed one."""
+    (:mod:`experiments.critic_values`); the config beside the log (a run directory's), else the committed one."""
     for budget in budgets:
-        if budget.log is None:
+        if budget.log_path is None:
             continue
-        in_runs = budget.log.startswith(f"{runs_dir.name}/")
-        log = runs_dir.parent / budget.log if in_runs else results_dir / budget.log
-        config = read_config(log.parent) if in_runs else None
+        config = read_config(budget.log_path.parent)
         if config is None:
             from baselines.config import load_run_config
 
             committed = load_run_config(cell.task, cell.algorithm)
             config = {"env": committed.env, "agent": committed.agent.to_dict()}
-        note = divergence_note(cell.algorithm, config, log)
+        note = divergence_note(cell.algorithm, config, budget.log_path)
         if note:
             cell.notes.append(f"{note}; {budget.log}" if len(budgets) > 1 else note)
 
@@ -268,7 +266,7 @@ def _fill(cell: Cell, results: list[SeedResult], results_dir: Path, runs_dir: Pa
     if cell.control != committed:
         cell.notes.append(f"trained in {cell.control} control; the committed config now asks for {committed}")
     cell.budgets = [find_budget(r, runs_dir, results_dir) for r in results]
-    _note_divergence(cell, cell.budgets, results_dir, runs_dir)
+    _note_divergence(cell, cell.budgets)
     if results[0].data == "perfect":
         cell.notes.insert(0, "(perfect data)")
     refs = {_key(r.references) for r in results if r.references is not None}

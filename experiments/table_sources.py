@@ -43,7 +43,8 @@ class Budget:
     steps: int
     hours: float | None = None
     machine: str | None = None
-    log: str | None = None  # the training log the hours come from
+    log: str | None = None  # the training log the hours come from, as the table names it
+    log_path: Path | None = None  # that log's file
 
 
 @dataclass
@@ -240,12 +241,13 @@ def find_budget(result: SeedResult, runs_dir: Path, results_dir: Path) -> Budget
     if own is not None and _matches(read_config(own), result) and (own / "progress.csv").exists():
         config = read_config(own)
         return Budget(result.steps, _run_hours(own, config, result.steps),
-                      result.machine or _machine(own, config, result.steps), f"{runs_dir.name}/{own.name}/progress.csv")
+                      result.machine or _machine(own, config, result.steps), f"{runs_dir.name}/{own.name}/progress.csv",
+                      own / "progress.csv")
     copy = results_dir / f"{result.stem}.csv" if result.stem else None
     if copy is not None and copy.exists():
         rows = read_progress(copy)
         hours = training_hours(rows, result.steps) if rows and rows[0].get("epoch") == 1 else None
-        return Budget(result.steps, hours, result.machine, copy.name)
+        return Budget(result.steps, hours, result.machine, copy.name, copy)
     found = []
     for run_dir in sorted(p for p in runs_dir.glob("*") if p.is_dir()) if runs_dir.is_dir() else []:
         config = read_config(run_dir)
@@ -253,7 +255,7 @@ def find_budget(result: SeedResult, runs_dir: Path, results_dir: Path) -> Budget
             hours = _run_hours(run_dir, config, result.steps)
             if hours is not None:
                 found.append(Budget(result.steps, hours, result.machine or _machine(run_dir, config, result.steps),
-                                    f"{runs_dir.name}/{run_dir.name}/progress.csv"))
+                                    f"{runs_dir.name}/{run_dir.name}/progress.csv", run_dir / "progress.csv"))
     return found[0] if len(found) == 1 else Budget(result.steps, None, result.machine, None)
 
 
@@ -287,7 +289,7 @@ def training_runs(runs_dir: Path) -> list[TrainingRun]:
             continue
         steps = int(rows[-1]["step"])
         budget = Budget(steps, _run_hours(run_dir, config, steps), _machine(run_dir, config, steps),
-                        f"{runs_dir.name}/{run_dir.name}/progress.csv")
+                        f"{runs_dir.name}/{run_dir.name}/progress.csv", run_dir / "progress.csv")
         planned = (config.get("train") or {}).get("n_steps")
         out.append(TrainingRun(config["task"], config["algorithm"], int(config["seed"]), budget, run_dir.name,
                                (config.get("env") or {}).get("control"), int(planned) if planned else None))
