@@ -75,6 +75,10 @@ AGENT_RECIPES: dict[str, AgentRecipe] = {
     "Talos.walk.preference": AgentRecipe(  # VAIL, GAIL and its 15M snapshot, LS-IQ, BC (all PD)
         exports=("Talos.walk/vail/seed0", "Talos.walk/gail/seed0", "Talos.walk/preference/gail_seed0_15M",
                  "Talos.walk/lsiq/seed0", "Talos.walk/bc/seed0"), episodes_per_set=100),
+    "HumanoidMuscle.walk.preference": AgentRecipe(  # VAIL 20M and its 5M, 10M, 15M snapshots (muscle excitations;
+        exports=("HumanoidMuscle.walk/vail/seed0", "HumanoidMuscle.walk/preference/vail_seed0_5M",  # the only row run)
+                 "HumanoidMuscle.walk/preference/vail_seed0_10M", "HumanoidMuscle.walk/preference/vail_seed0_15M"),
+        episodes_per_set=100),
 }
 
 

@@ -87,8 +87,7 @@ def test_same_export_and_seed_build_a_byte_identical_file(tmp_path):
     assert digests[0] == digests[1] != digests[2]
 
 
-@pytest.mark.parametrize("name", ["UnitreeH1.walk.preference", "Atlas.walk.preference", "Talos.walk.preference",
-                                  "HumanoidTorque.walk.preference", "UnitreeA1.simple.preference"])
+@pytest.mark.parametrize("name", sorted(n for n in AGENT_RECIPES if n.endswith(".preference")))
 def test_preference_sets_are_ranked_by_return(name):
     env = lm.LocoEnv.make(name)
     sets = env.dataset.metadata["sets"]
