@@ -11,7 +11,8 @@ A finished run (its checkpoint reached ``train.n_steps``) lands as what the tabl
 
 An unfinished run is parked with ``--park``: its resumable state (checkpoint, config, log, machines; never a
 replay buffer; its policy snapshots with ``--snapshots``) goes into ``results/runs/<name>/``, so that a fresh
-machine continues it with ``launch.py --env TASK --algo ALGO --threads 1 --resume --out results/runs/<name>``.
+machine continues it with ``sweep.py --tasks TASK --algos ALGO --seeds N --from-parked`` (a copy in the sweep's folder)
+or ``launch.py --env TASK --algo ALGO --threads 1 --resume --out results/runs/<name>`` (in place).
 Parking again replaces an earlier state of the same run only; a later one, another run's or a landed run's folder
 is refused.
 

@@ -7,7 +7,9 @@ default). The same keys can come from a YAML file (``--config sweep.yaml``; the 
 Running the same sweep again skips finished trials (their checkpoint reached the requested steps), resumes the
 interrupted ones from their checkpoints, and for a finished sweep reports "0 trials run" and changes no file;
 ``--steps`` larger than before extends every trial. A folder holding a run with another configuration is
-refused, never overwritten. A live table shows each trial (pending, running with its step count, finished,
+refused, never overwritten. With ``--from-parked`` an empty trial folder first takes the state
+``land_run.py --park`` committed of the same run (``results/runs/<task>_<algo>[_seed<N>]``), so that a fresh clone
+continues the table's unfinished runs. A live table shows each trial (pending, running with its step count, finished,
 failed with the error's last line); the exit status is 1 if any trial failed.
 
 Ray starts locally with ``--num-cpus`` CPUs (default: all) and nothing to set up; ``--address HOST:PORT`` joins a
@@ -30,12 +32,21 @@ REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))  # run from a checkout without installing
 
 from baselines.config import ConfigError  # noqa: E402
-from experiments.sweep_plan import RunDirConflict, Trial, inspect_run_dir, last_score, make_trials  # noqa: E402
+from experiments.sweep_plan import (  # noqa: E402
+    RunDirConflict,
+    Trial,
+    adopt_parked,
+    inspect_run_dir,
+    last_score,
+    make_trials,
+    parked_source,
+)
 from experiments.sweep_spec import SweepSpecError, build_spec, read_sweep_file  # noqa: E402
 from experiments.sweep_status import LiveTable, ProgressBoard, TrialStatus  # noqa: E402
 from experiments.sweep_trial import TrialOutcome, run_trial  # noqa: E402
 
 REFRESH_S = 2.0  # how often the live table asks the trials for their step counts
+PARKED = REPO / "results" / "runs"  # where land_run.py --park commits unfinished runs
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
@@ -55,6 +66,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--num-cpus", type=int, help="CPUs of the local Ray instance (default: all of this machine)")
     parser.add_argument("--address", help="join this Ray cluster (HOST:PORT of `ray start --head`, or auto) "
                                           "instead of starting a local one")
+    parser.add_argument("--from-parked", nargs="?", const=str(PARKED), metavar="DIR",
+                        help="start each trial whose folder is empty from the same run's parked state in "
+                             f"DIR/<task>_<algo>[_seed<N>] (default DIR: {PARKED.relative_to(REPO)})")
     return parser.parse_args(argv)
 
 
@@ -89,6 +103,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     for text in notes:
         print(f"note: {text}", file=sys.stderr)
+    if args.from_parked is not None and not _adopt_parked(trials, Path(args.from_parked)):
+        return 2
 
     rows, todo, conflicts = _plan(trials)
     if conflicts:
@@ -127,6 +143,32 @@ def main(argv: list[str] | None = None) -> int:
             ray.shutdown()
         signal.signal(signal.SIGTERM, previous_handler)
     return _summary(outcomes, done)
+
+
+def _adopt_parked(trials: list[Trial], parked_root: Path) -> bool:
+    """Seed the empty trial folders from their runs' parked states; nothing is copied (and False returned) when one
+    of those states has another configuration."""
+    if not parked_root.is_dir():
+        print(f"error: --from-parked: {parked_root} is not a folder", file=sys.stderr)
+        return False
+    sources, conflicts = {}, []
+    for trial in trials:
+        try:
+            sources[trial.key] = parked_source(trial, parked_root)
+        except RunDirConflict as err:
+            conflicts.append(str(err))
+    for text in conflicts:
+        print(f"error: {text}", file=sys.stderr)
+    if conflicts:
+        print(f"error: {len(conflicts)} parked runs conflict with this sweep; nothing was copied or started",
+              file=sys.stderr)
+        return False
+    for trial in trials:
+        if sources[trial.key] is not None:
+            source, steps = sources[trial.key]
+            adopt_parked(trial, source)
+            print(f"note: {trial.key} continues the run parked in {source} at {steps:,} steps", file=sys.stderr)
+    return True
 
 
 def _plan(trials: list[Trial]) -> tuple[list[TrialStatus], list[tuple[Trial, TrialStatus]], list[str]]:

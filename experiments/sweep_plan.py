@@ -6,6 +6,9 @@ is read but the checkpoint), one short of them is resumed with the Trainer's ``r
 missing folder starts a new run. A folder whose run has another configuration (any value except
 ``train.n_steps`` and the torch threads, which a resume may change) is never touched: the trial is refused
 with the keys that differ.
+
+A run parked in git (``land_run.py --park``: ``results/runs/<task>_<algo>[_seed<N>]``) can seed an empty trial
+folder, so that a fresh clone continues it (``sweep.py --from-parked``).
 """
 
 from __future__ import annotations
@@ -19,8 +22,10 @@ from typing import Any
 import yaml
 
 from baselines.config import RunConfig
-from baselines.training import CHECKPOINT, RUN_FILES, load_checkpoint, run_config_from_checkpoint
+from baselines.training import CHECKPOINT, RUN_FILES, SNAPSHOTS, load_checkpoint, run_config_from_checkpoint
+from experiments.land_run import PARKED_FILES
 from experiments.launch import resolve_run, run_dir
+from experiments.plot_results import output_stem
 from experiments.sweep_spec import SweepSpec
 
 # What a resume may change, so what a sweep re-run may differ in; ``sources`` are paths, not values.
@@ -93,6 +98,42 @@ def inspect_run_dir(trial: Trial) -> DirState:
         return DirState("unstarted")
     raise RunDirConflict(f"{trial.key}: {out} holds another run's files ({', '.join(found)}) but no checkpoint; "
                          "the sweep never overwrites a run: move the folder away or choose another --out")
+
+
+def parked_source(trial: Trial, parked_root: Path) -> tuple[Path, int] | None:
+    """The parked state of ``trial``'s run in ``parked_root/<task>_<algo>[_seed<N>]`` and its steps, where the
+    trial's folder is still empty; None where it is not or nothing is parked. A parked run with another
+    configuration raises :class:`RunDirConflict` (it is neither used nor changed)."""
+    source = parked_root / output_stem(trial.run)
+    try:
+        empty = inspect_run_dir(trial).kind == "new"
+    except RunDirConflict:
+        return None  # the trial's own folder is refused when the sweep plans it
+    if not empty or not (source / CHECKPOINT).exists():
+        return None
+    try:
+        state = load_checkpoint(source / CHECKPOINT)
+        saved = run_config_from_checkpoint(state)
+    except (ValueError, KeyError, TypeError) as err:
+        raise RunDirConflict(f"{trial.key}: the parked {source / CHECKPOINT} cannot be read ({err})") from None
+    diffs = config_differences(saved.to_dict(), trial.run.to_dict())
+    if diffs:
+        shown = "; ".join(diffs[:5]) + (f"; and {len(diffs) - 5} more" if len(diffs) > 5 else "")
+        raise RunDirConflict(f"{trial.key}: the run parked in {source} has another configuration ({shown}); "
+                             "sweep without --from-parked to start this trial afresh")
+    return source, int(state["steps"])
+
+
+def adopt_parked(trial: Trial, source: Path) -> None:
+    """Copy the parked run in ``source`` (checkpoint, config, log, machines, snapshots) into ``trial``'s empty
+    folder, which the sweep then resumes (an off-policy run's replay buffer is never parked: the Trainer collects
+    a fresh warm-up)."""
+    trial.out_dir.mkdir(parents=True, exist_ok=True)
+    for name in PARKED_FILES:
+        if (source / name).exists():
+            shutil.copy2(source / name, trial.out_dir / name)
+    if (source / SNAPSHOTS).is_dir():
+        shutil.copytree(source / SNAPSHOTS, trial.out_dir / SNAPSHOTS)
 
 
 def clear_unstarted(trial: Trial) -> None:

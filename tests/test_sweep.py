@@ -4,6 +4,7 @@ run is refused, a failing trial is shown, and malformed sweep files fail naming 
 import csv
 import hashlib
 import io
+import shutil
 import sys
 from pathlib import Path
 
@@ -12,7 +13,15 @@ import yaml
 
 from baselines.training import load_checkpoint
 from experiments import sweep
-from experiments.sweep_plan import RunDirConflict, Trial, inspect_run_dir, make_trials
+from experiments.sweep_plan import (
+    DirState,
+    RunDirConflict,
+    Trial,
+    adopt_parked,
+    inspect_run_dir,
+    make_trials,
+    parked_source,
+)
 from experiments.sweep_spec import SweepSpecError, build_spec, read_sweep_file
 from experiments.sweep_status import LiveTable, TrialStatus
 
@@ -87,8 +96,8 @@ def test_a_failing_trial_is_shown_and_fails_the_sweep(local_ray, tmp_path, capsy
 
 
 # ---- folders: what a trial finds there ------------------------------------------------------------------
-def tiny_trial(tmp_path: Path, **overrides) -> Trial:
-    spec = build_spec({}, {"tasks": ["UnitreeH1.walk.perfect"], "algos": ["bc"], "steps": 200, "out": str(tmp_path),
+def tiny_trial(tmp_path: Path, steps: int = 200, **overrides) -> Trial:
+    spec = build_spec({}, {"tasks": ["UnitreeH1.walk.perfect"], "algos": ["bc"], "steps": steps, "out": str(tmp_path),
                            "set": [*TINY[5::2], *[f"{k}={v}" for k, v in overrides.items()]]})
     return make_trials(spec)[0]
 
@@ -105,6 +114,47 @@ def test_a_run_killed_before_its_first_checkpoint_is_started_again_unless_it_is_
     (trial.out_dir / "progress.csv").write_text("step,score\n100,1.0\n")  # a logged epoch without checkpoint
     with pytest.raises(RunDirConflict, match=r"holds another run's files \(progress.csv, config.yaml\)"):
         inspect_run_dir(trial)
+
+
+def test_from_parked_continues_a_parked_run_and_refuses_another_configuration(local_ray, tmp_path, capsys):
+    """A fresh clone continues the table's unfinished runs from the states land_run.py --park committed."""
+    from baselines.training import Trainer
+
+    trained = tiny_trial(tmp_path / "trained")
+    Trainer(trained.run, trained.out_dir, progress=False).train()  # 200 of the 300 steps below
+    parked_root = tmp_path / "results_runs"
+    source = parked_root / "UnitreeH1.walk.perfect_bc"  # land_run.py's name: <task>_<algo>
+    source.mkdir(parents=True)
+    for name in ("checkpoint.pt", "config.yaml", "progress.csv", "machines.csv"):
+        shutil.copy2(trained.out_dir / name, source / name)
+    (source / "snapshots" / "100").mkdir(parents=True)
+    (source / "snapshots" / "100" / "card.json").write_text("{}")
+    parked = files(parked_root)
+
+    longer = tiny_trial(tmp_path / "unit", steps=300)
+    assert parked_source(longer, tmp_path / "elsewhere") is None
+    assert parked_source(longer, parked_root) == (source, 200)
+    adopt_parked(longer, source)
+    assert inspect_run_dir(longer) == DirState("resume", 200)
+    assert (longer.out_dir / "snapshots" / "100" / "card.json").read_text() == "{}"
+    assert parked_source(longer, parked_root) is None  # its folder holds a run now: left to the sweep's plan
+    with pytest.raises(RunDirConflict, match=r"agent.lr: 0.001 in the folder, 0.01 in this sweep.*without --from"):
+        parked_source(tiny_trial(tmp_path / "unit2", **{"agent.lr": 0.01}), parked_root)
+
+    out = tmp_path / "sweep"
+    assert sweep.main([*TINY, "--steps", "300", "--out", str(out), "--set", "agent.lr=0.01",
+                       "--from-parked", str(parked_root)]) == 2
+    assert "1 parked runs conflict with this sweep; nothing was copied" in capsys.readouterr().err
+    assert not out.exists()
+    assert sweep.main([*TINY, "--steps", "300", "--out", str(out), "--from-parked", str(parked_root)]) == 0
+    captured = capsys.readouterr()
+    assert f"continues the run parked in {source} at 200 steps" in captured.err
+    assert "1 trials run: 1 finished" in captured.out
+    run = out / "UnitreeH1.walk.perfect" / "bc" / "seed0"
+    assert load_checkpoint(run)["steps"] == 300
+    assert [r["step"] for r in log_rows(run)] == ["100", "200", "300"]
+    assert log_rows(run)[:2] == log_rows(source)  # resumed from the parked state, not restarted
+    assert files(parked_root) == parked  # the parked state itself is never written
 
 
 # ---- sweep files and options ----------------------------------------------------------------------------
