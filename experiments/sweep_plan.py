@@ -118,9 +118,8 @@ def parked_source(trial: Trial, parked_root: Path) -> tuple[Path, int] | None:
         raise RunDirConflict(f"{trial.key}: the parked {source / CHECKPOINT} cannot be read ({err})") from None
     diffs = config_differences(saved.to_dict(), trial.run.to_dict())
     if diffs:
-        shown = "; ".join(diffs[:5]) + (f"; and {len(diffs) - 5} more" if len(diffs) > 5 else "")
-        raise RunDirConflict(f"{trial.key}: the run parked in {source} has another configuration ({shown}); "
-                             "sweep without --from-parked to start this trial afresh")
+        raise RunDirConflict(f"{trial.key}: the run parked in {source} has another configuration "
+                             f"({_first_differences(diffs)}); sweep without --from-parked to start this trial afresh")
     return source, int(state["steps"])
 
 
@@ -165,9 +164,13 @@ def last_score(out_dir: Path) -> float | None:
 def _refuse_other_config(trial: Trial, saved: dict[str, Any], where: Path) -> None:
     diffs = config_differences(saved, trial.run.to_dict())
     if diffs:
-        shown = "; ".join(diffs[:5]) + (f"; and {len(diffs) - 5} more" if len(diffs) > 5 else "")
-        raise RunDirConflict(f"{trial.key}: {where} is a run with another configuration ({shown}). The sweep never "
-                             "overwrites a run: choose another --out, or move that folder away to rerun it")
+        raise RunDirConflict(f"{trial.key}: {where} is a run with another configuration ({_first_differences(diffs)}). "
+                             "The sweep never overwrites a run: choose another --out, or move that folder away to "
+                             "rerun it")
+
+
+def _first_differences(diffs: list[str], shown: int = 5) -> str:
+    return "; ".join(diffs[:shown]) + (f"; and {len(diffs) - shown} more" if len(diffs) > shown else "")
 
 
 def _flatten(config: dict[str, Any]) -> dict[str, Any]:
