@@ -239,6 +239,9 @@ def main(argv: list[str] | None = None) -> int:
             size = sum(f.stat().st_size for f in folder.rglob("*") if f.is_file())
             print(f"parked: {run.config.task} {run.config.algorithm} seed {run.config.seed} at {run.steps:,} of "
                   f"{run.config.train.n_steps:,} steps in {shown} ({size:,} bytes); continue with\n"
+                  f"  python experiments/sweep.py --tasks {run.config.task} --algos {run.config.algorithm} "
+                  f"--seeds {run.config.seed} --threads 1 --from-parked {Path(shown).parent} --out runs/table\n"
+                  f"or in place with\n"
                   f"  python experiments/launch.py --env {run.config.task} --algo {run.config.algorithm} "
                   f"--threads 1 --resume --out {shown}")
             return 0

@@ -52,7 +52,9 @@ def test_park_copies_the_resumable_state_and_refuses_what_it_would_overwrite(fin
     expected = ["checkpoint.pt", "config.yaml", "machines.csv", "progress.csv"]  # no TensorBoard, no replay buffer
     assert sorted(p.name for p in parked.iterdir()) == expected
     assert (parked / "checkpoint.pt").read_bytes() == (half / "checkpoint.pt").read_bytes()
-    assert "at 200 of 400 steps" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "at 200 of 400 steps" in printed
+    assert f"--algos gaifo --seeds 3 --threads 1 --from-parked {results / 'runs'} --out" in printed
     (half / "snapshots" / "100").mkdir(parents=True)
     (half / "snapshots" / "100" / "card.json").write_text("{}")
     park(read_run(half), results, snapshots=True)  # the same state again: allowed; with its snapshots when asked
