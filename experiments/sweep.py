@@ -149,7 +149,8 @@ def _adopt_parked(trials: list[Trial], parked_root: Path) -> bool:
     """Seed the empty trial folders from their runs' parked states; nothing is copied (and False returned) when one
     of those states has another configuration."""
     if not parked_root.is_dir():
-        print(f"error: --from-parked: {parked_root} is not a folder", file=sys.stderr)
+        print(f"error: --from-parked {parked_root}: no such folder; give the folder land_run.py --park writes "
+              f"into (default {PARKED.relative_to(REPO)})", file=sys.stderr)
         return False
     sources, conflicts = {}, []
     for trial in trials:

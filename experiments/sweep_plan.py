@@ -89,7 +89,7 @@ def inspect_run_dir(trial: Trial) -> DirState:
         _refuse_other_config(trial, saved.to_dict(), checkpoint)
         steps = int(state["steps"])
         return DirState("finished" if steps >= trial.run.train.n_steps else "resume", steps)
-    found = [name for name in RUN_FILES if (out / name).exists()]
+    found = _held_files(out)
     if not found:
         return DirState("new")
     if set(found) <= set(UNSTARTED_FILES) and (out / "config.yaml").exists() and not _has_rows(out / "progress.csv"):
@@ -105,12 +105,8 @@ def parked_source(trial: Trial, parked_root: Path) -> tuple[Path, int] | None:
     trial's folder is still empty; None where it is not or nothing is parked. A parked run with another
     configuration raises :class:`RunDirConflict` (it is neither used nor changed)."""
     source = parked_root / output_stem(trial.run)
-    try:
-        empty = inspect_run_dir(trial).kind == "new"
-    except RunDirConflict:
-        return None  # the trial's own folder is refused when the sweep plans it
-    if not empty or not (source / CHECKPOINT).exists():
-        return None
+    if trial.out_dir.is_file() or _held_files(trial.out_dir) or not (source / CHECKPOINT).exists():
+        return None  # a folder holding something is the sweep's plan to judge (its checkpoint is not read twice)
     try:
         state = load_checkpoint(source / CHECKPOINT)
         saved = run_config_from_checkpoint(state)
@@ -167,6 +163,11 @@ def _refuse_other_config(trial: Trial, saved: dict[str, Any], where: Path) -> No
         raise RunDirConflict(f"{trial.key}: {where} is a run with another configuration ({_first_differences(diffs)}). "
                              "The sweep never overwrites a run: choose another --out, or move that folder away to "
                              "rerun it")
+
+
+def _held_files(out: Path) -> list[str]:
+    """The run files (``RUN_FILES``) that folder ``out`` holds; none: a new trial's folder."""
+    return [name for name in RUN_FILES if (out / name).exists()]
 
 
 def _first_differences(diffs: list[str], shown: int = 5) -> str:

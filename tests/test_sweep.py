@@ -142,6 +142,8 @@ def test_from_parked_continues_a_parked_run_and_refuses_another_configuration(lo
         parked_source(tiny_trial(tmp_path / "unit2", **{"agent.lr": 0.01}), parked_root)
 
     out = tmp_path / "sweep"
+    assert sweep.main([*TINY, "--steps", "300", "--out", str(out), "--from-parked", str(tmp_path / "elsewhere")]) == 2
+    assert "elsewhere: no such folder; give the folder land_run.py --park writes into" in capsys.readouterr().err
     assert sweep.main([*TINY, "--steps", "300", "--out", str(out), "--set", "agent.lr=0.01",
                        "--from-parked", str(parked_root)]) == 2
     assert "1 parked runs conflict with this sweep; nothing was copied" in capsys.readouterr().err
