@@ -5,12 +5,12 @@
 Writes ``table.md``, ``table.csv`` and ``performance_profile.png`` into ``--out``; an existing one is replaced
 only with ``--force``. Same inputs give byte-identical files (every bootstrap seeded, no dates, no absolute paths).
 
-One row per task and algorithm of the planned grid (6 tasks x 7 algorithms), its seeds pooled episode by episode
-(:mod:`experiments.table_cells` says how rows are filled and when a row is "not run", "in progress", "not evaluated"
-or "n/a"; the inputs are read by :mod:`experiments.table_sources`). Below the table, per algorithm over the tasks it
-has: the IQM of run scores with a 95% stratified-bootstrap interval, and the performance profile (fraction of runs with
-score > tau) with its band, from :mod:`loco_mujoco.evaluation.aggregate` (numpy, because rliable 1.2.0 pins
-``arch<8``).
+One row per task and algorithm of the planned grid (``sweeps/table.yaml``: 6 tasks x 7 algorithms and
+each task's seeds), its seeds pooled episode by episode (:mod:`experiments.table_cells` says how rows are filled
+and when a row is "not run", "in progress", "not evaluated" or "n/a"; the inputs are read by
+:mod:`experiments.table_sources`). Below the table, per algorithm over the tasks it has: the IQM of run scores with
+a 95% stratified-bootstrap interval, and the performance profile (fraction of runs with score > tau) with its band,
+from :mod:`loco_mujoco.evaluation.aggregate` (numpy, because rliable 1.2.0 pins ``arch<8``).
 """
 
 from __future__ import annotations
@@ -112,10 +112,10 @@ def plot_profile(agg: dict[str, dict[str, Any]], path: Path) -> None:
 # ---- outputs -----------------------------------------------------------------------------------------------------
 
 CSV_COLUMNS = ("task", "algorithm", "status", "data", "control", "score_mean", "score_ci_low", "score_ci_high",
-               "score_iqm", "seeds", "episodes", "R_mean", "R_ci_low", "R_ci_high", "L_mean", "L_ci_low", "L_ci_high",
-               "gait_deviation", "dtw_joints_rad", "dtw_sites_m", "classifier_auc", "steps_per_seed", "step_unit",
-               "train_hours_per_seed", "machine", "random_R", "hold_pose_R", "zero_action_R", "expert_R",
-               "references_dataset", "sources", "notes")
+               "score_iqm", "seeds", "seeds_planned", "episodes", "R_mean", "R_ci_low", "R_ci_high", "L_mean",
+               "L_ci_low", "L_ci_high", "gait_deviation", "dtw_joints_rad", "dtw_sites_m", "classifier_auc",
+               "steps_per_seed", "step_unit", "train_hours_per_seed", "machine", "random_R", "hold_pose_R",
+               "zero_action_R", "expert_R", "references_dataset", "sources", "notes")
 
 
 def _csv_number(x: float | None) -> str:
@@ -132,8 +132,9 @@ def render_csv(cells: list[Cell]) -> str:
         ci = {k: f.get(f"{k}_ci", (None, None)) for k in ("score", "R", "L")}
         w.writerow([c.task, c.algorithm, c.status, c.data or "", c.control, _csv_number(f.get("score")),
                     _csv_number(ci["score"][0]), _csv_number(ci["score"][1]), _csv_number(f.get("score_iqm")),
-                    len(c.results) or "", f.get("episodes", ""), _csv_number(f.get("R")), _csv_number(ci["R"][0]),
-                    _csv_number(ci["R"][1]), _csv_number(f.get("L")), _csv_number(ci["L"][0]), _csv_number(ci["L"][1]),
+                    len(c.results) or "", len(c.planned_seeds), f.get("episodes", ""), _csv_number(f.get("R")),
+                    _csv_number(ci["R"][0]), _csv_number(ci["R"][1]), _csv_number(f.get("L")),
+                    _csv_number(ci["L"][0]), _csv_number(ci["L"][1]),
                     _csv_number(f.get("gait_deviation")), _csv_number(f.get("dtw_joints")),
                     _csv_number(f.get("dtw_sites")), _csv_number(f.get("classifier_auc")),
                     ";".join(str(b.steps) for b in c.budgets),
@@ -202,6 +203,8 @@ def render_markdown(cells: list[Cell], agg: dict[str, dict[str, Any]], inputs: I
         "- **score**: normalised (0 = uniformly random policy, 100 = expert), deterministic policy, mean with a 95% "
         "studentized-bootstrap interval over the per-episode scores of all seeds pooled (50 episodes per seed); "
         "BCa where 60% or more of the values tie, as episode lengths at the horizon do.",
+        "- **seeds**: the training seeds pooled; \"k of n\" where the grid plans n (`sweeps/table.yaml`, "
+        "the sweep file that trains every row: `python experiments/sweep.py --config sweeps/table.yaml`).",
         "- **R**, **L**: mean return and episode length over the same episodes.",
         "- **gait dev.**: the mean relative deviation of eight gait metrics from the expert's over the same frames "
         "(each capped at 1; 0 = the expert's gait); **DTW joints** (rad) and **DTW sites** (m, pelvis height and "
@@ -233,7 +236,7 @@ def render_markdown(cells: list[Cell], agg: dict[str, dict[str, Any]], inputs: I
         f, refs = c.figures, c.references or {}
         steps, hours = budget_text(c)
         lines.append("| " + " | ".join([
-            c.task, NAMES[c.algorithm], c.control, score_text(c), str(len(c.results)) if c.results else "-",
+            c.task, NAMES[c.algorithm], c.control, score_text(c), c.seeds_text,
             _num(f.get("R"), 1), _num(f.get("L"), 0), _num(f.get("gait_deviation"), 2), _num(f.get("dtw_joints"), 2),
             _num(f.get("dtw_sites"), 2), _num(f.get("classifier_auc"), 3), steps, hours, _machines(c) or "-",
             _num(refs.get("random_return"), 1), _num(refs.get("hold_return"), 1), _num(refs.get("expert_return"), 1),

@@ -42,7 +42,7 @@ from experiments.sweep_plan import (  # noqa: E402
     parked_source,
 )
 from experiments.sweep_spec import SweepSpecError, build_spec, read_sweep_file  # noqa: E402
-from experiments.sweep_status import LiveTable, ProgressBoard, TrialStatus  # noqa: E402
+from experiments.sweep_status import LiveTable, ProgressBoard, TrialStatus, render  # noqa: E402
 from experiments.sweep_trial import TrialOutcome, run_trial  # noqa: E402
 
 REFRESH_S = 2.0  # how often the live table asks the trials for their step counts
@@ -69,6 +69,10 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--from-parked", nargs="?", const=str(PARKED), metavar="DIR",
                         help="start each trial whose folder is empty from the same run's parked state in "
                              f"DIR/<task>_<algo>[_seed<N>] (default DIR: {PARKED.relative_to(REPO)})")
+    parser.add_argument("--plan", action="store_true",
+                        help="print what each trial would do (start, resume from its checkpoint or a parked state, "
+                             "or nothing: finished) and the steps left, then exit: nothing is started or written "
+                             "and Ray is not needed")
     return parser.parse_args(argv)
 
 
@@ -85,7 +89,6 @@ def require_ray() -> ModuleType:
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     try:
-        ray = require_ray()
         if args.address and args.num_cpus is not None:
             raise SweepSpecError("--num-cpus sizes a local Ray instance; a cluster joined with --address has the "
                                  "CPUs its `ray start` commands gave it")
@@ -103,8 +106,21 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     for text in notes:
         print(f"note: {text}", file=sys.stderr)
-    if args.from_parked is not None and not _adopt_parked(trials, Path(args.from_parked)):
+    if args.plan:
+        return _print_plan(trials, None if args.from_parked is None else Path(args.from_parked), spec.out)
+    parked = {} if args.from_parked is None else _parked_sources(trials, Path(args.from_parked))
+    if parked is None:
         return 2
+    try:
+        ray = require_ray()
+    except ImportError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    for trial in trials:
+        if parked.get(trial.key) is not None:
+            source, steps = parked[trial.key]
+            adopt_parked(trial, source)
+            print(f"note: {trial.key} continues the run parked in {source} at {steps:,} steps", file=sys.stderr)
 
     rows, todo, conflicts = _plan(trials)
     if conflicts:
@@ -145,13 +161,13 @@ def main(argv: list[str] | None = None) -> int:
     return _summary(outcomes, done)
 
 
-def _adopt_parked(trials: list[Trial], parked_root: Path) -> bool:
-    """Seed the empty trial folders from their runs' parked states; nothing is copied (and False returned) when one
-    of those states has another configuration."""
+def _parked_sources(trials: list[Trial], parked_root: Path) -> dict[str, tuple[Path, int] | None] | None:
+    """Per trial key, the parked state (folder, steps) its empty folder would start from; None, the errors printed,
+    when ``parked_root`` is missing or one of those states has another configuration (then nothing is copied)."""
     if not parked_root.is_dir():
         print(f"error: --from-parked {parked_root}: no such folder; give the folder land_run.py --park writes "
               f"into (default {PARKED.relative_to(REPO)})", file=sys.stderr)
-        return False
+        return None
     sources, conflicts = {}, []
     for trial in trials:
         try:
@@ -163,13 +179,47 @@ def _adopt_parked(trials: list[Trial], parked_root: Path) -> bool:
     if conflicts:
         print(f"error: {len(conflicts)} parked runs conflict with this sweep; nothing was copied or started",
               file=sys.stderr)
-        return False
+        return None
+    return sources
+
+
+def _print_plan(trials: list[Trial], parked_root: Path | None, out: Path) -> int:
+    """``--plan``: the table of what each trial would do and the steps left; a trial whose folder or parked state
+    holds another configuration is listed as a conflict (exit 2), as the sweep itself would refuse it."""
+    if parked_root is not None and not parked_root.is_dir():
+        print(f"error: --from-parked {parked_root}: no such folder", file=sys.stderr)
+        return 2
+    rows, conflicts = [], []
     for trial in trials:
-        if sources[trial.key] is not None:
-            source, steps = sources[trial.key]
-            adopt_parked(trial, source)
-            print(f"note: {trial.key} continues the run parked in {source} at {steps:,} steps", file=sys.stderr)
-    return True
+        row = TrialStatus(trial.key, trial.run.train.n_steps)
+        try:
+            state = inspect_run_dir(trial)
+            source = None if parked_root is None else parked_source(trial, parked_root)
+        except RunDirConflict as err:
+            conflicts.append(str(err))
+            row.state, row.note = "conflict", str(err).removeprefix(f"{trial.key}: ")
+            rows.append(row)
+            continue
+        row.steps = state.steps
+        if state.kind == "finished":
+            row.state, row.score = "done before", last_score(trial.out_dir)
+        elif source is not None:
+            row.state, row.steps, row.note = "to resume", source[1], f"from the state parked in {source[0]}"
+        elif state.kind == "resume":
+            row.state, row.note = "to resume", "from its checkpoint"
+        else:
+            row.state = "to start"
+        rows.append(row)
+    print(render(rows, None))
+    from baselines import ALGORITHMS
+
+    left = {True: 0, False: 0}  # offline (gradient steps) or not (environment steps)
+    for trial, row in zip(trials, rows, strict=True):
+        if row.state != "conflict":
+            left[bool(getattr(ALGORITHMS[trial.run.algorithm], "offline", False))] += max(row.total - row.steps, 0)
+    print(f"plan for {out}: {len(trials)} trials; left to train: {left[False]:,} environment steps and {left[True]:,} "
+          f"gradient steps{f'; {len(conflicts)} in conflict' if conflicts else ''}; nothing was started or written")
+    return 2 if conflicts else 0
 
 
 def _plan(trials: list[Trial]) -> tuple[list[TrialStatus], list[tuple[Trial, TrialStatus]], list[str]]:

@@ -61,15 +61,13 @@ class DirState:
 
 
 def make_trials(spec: SweepSpec, note: Any = None) -> list[Trial]:
-    """Every (task, algorithm, seed) of ``spec`` with its resolved configuration; raises ``ConfigError`` or
+    """Every (task, algorithm, seed) of ``spec.runs()`` with its resolved configuration; raises ``ConfigError`` or
     ``ValueError`` on the first that cannot be configured (nothing has started yet)."""
     trials = []
-    for task in spec.tasks:
-        for algo in spec.algos:
-            for seed in spec.seeds:
-                run = resolve_run(task, algo, seed=seed, steps=spec.steps, threads=spec.threads,
-                                  overrides=spec.overrides, note=note)
-                trials.append(Trial(run=run, out_dir=run_dir(spec.out, task, algo, seed), threads=spec.threads))
+    for task, algo, seed in spec.runs():
+        run = resolve_run(task, algo, seed=seed, steps=spec.steps, threads=spec.threads, overrides=spec.overrides,
+                          note=note)
+        trials.append(Trial(run=run, out_dir=run_dir(spec.out, task, algo, seed), threads=spec.threads))
     return trials
 
 

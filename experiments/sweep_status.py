@@ -14,7 +14,8 @@ import time
 from dataclasses import dataclass
 from typing import TextIO
 
-STATES = ("pending", "running", "finished", "failed", "done before")
+# the last three are --plan's: what a trial would do
+STATES = ("pending", "running", "finished", "failed", "done before", "to start", "to resume", "conflict")
 
 
 class ProgressBoard:
@@ -42,12 +43,13 @@ class TrialStatus:
     note: str = ""
 
 
-def render(rows: list[TrialStatus], elapsed_s: float) -> str:
-    """The table of ``rows`` under a one-line count of trials per state."""
+def render(rows: list[TrialStatus], elapsed_s: float | None) -> str:
+    """The table of ``rows`` under a one-line count of trials per state (and the time elapsed, where given)."""
     counts = {s: sum(r.state == s for r in rows) for s in STATES}
     head = ", ".join(f"{n} {s}" for s, n in counts.items() if n)
     width = max([len("trial"), *(len(r.key) for r in rows)])
-    lines = [f"sweep: {len(rows)} trials: {head}; {_clock(elapsed_s)} elapsed",
+    clock = "" if elapsed_s is None else f"; {_clock(elapsed_s)} elapsed"
+    lines = [f"sweep: {len(rows)} trials: {head}{clock}",
              f"{'trial':<{width}}  {'state':<11}  {'steps':>23}  {'score':>6}  note"]
     for r in rows:
         steps = f"{r.steps:,} / {r.total:,}"

@@ -1,5 +1,8 @@
 """The rows of the results table: the planned grid, which results fill each row, and the aggregates over tasks.
 
+The grid (tasks, algorithms and each task's planned seeds) is the sweep file ``sweeps/table.yaml``, the one
+that trains it, so rows and runs have one definition; a row with fewer seeds than planned says which are missing.
+
 A row pools the per-episode normalised scores of all its training seeds (deterministic policy) and gives their
 mean with the repository's studentized-bootstrap 95% interval (BCa where most values tie;
 :func:`loco_mujoco.evaluation.intervals.mean_interval`, seeded as ``evaluate.py`` seeds it, so a one-seed row repeats
@@ -28,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from experiments.critic_values import divergence_note
+from experiments.sweep_spec import build_spec, read_sweep_file
 from experiments.table_sources import (
     Budget,
     SeedResult,
@@ -44,9 +48,9 @@ from loco_mujoco.evaluation.aggregate import aggregate_iqm, performance_profile
 from loco_mujoco.evaluation.intervals import iqm, mean_interval
 from loco_mujoco.evaluation.protocol import SEED
 
-TASKS = ("UnitreeH1.walk", "Talos.walk", "Atlas.walk", "UnitreeA1.simple", "HumanoidTorque.walk",
-         "HumanoidMuscle.walk")
-ALGORITHMS = ("gail", "vail", "gaifo", "iq_learn", "lsiq", "sqil", "bc")
+GRID_FILE = Path(__file__).resolve().parent.parent / "sweeps" / "table.yaml"
+GRID = build_spec(read_sweep_file(GRID_FILE), {})
+TASKS, ALGORITHMS = tuple(GRID.tasks), tuple(GRID.algos)
 OK, NOT_RUN, NOT_EVALUATED, NO_ACTIONS = "ok", "not run", "not evaluated", "n/a: no expert actions"
 IN_PROGRESS = "in progress"  # its runs stop short of their planned steps
 DID_NOT_LEARN = "did not learn: its score's 95% interval reaches 0 (uniformly random actions)"
@@ -121,6 +125,15 @@ class Cell:
     references: dict[str, Any] | None = None
     notes: list[str] = field(default_factory=list)
     figures: dict[str, Any] = field(default_factory=dict)
+    planned_seeds: list[int] = field(default_factory=lambda: [0])  # the grid file's seeds for this task
+
+    @property
+    def seeds_text(self) -> str:
+        """How many seeds the row pools, and of how many planned where that is fewer: "1 of 3"."""
+        if not self.results:
+            return "-"
+        found, planned = len(self.results), len(self.planned_seeds)
+        return f"{found} of {planned}" if found < planned else str(found)
 
     @property
     def data(self) -> str | None:
@@ -175,7 +188,7 @@ def build_cells(inputs: Inputs, results_dir: Path, runs_dir: Path) -> list[Cell]
     cells = []
     for task in TASKS:
         for algo in ALGORITHMS:
-            cell = Cell(task, algo, NOT_RUN, references=refs_of_task.get(task))
+            cell = Cell(task, algo, NOT_RUN, references=refs_of_task.get(task), planned_seeds=GRID.seeds_of(task))
             found = by_cell.get((task, algo), [])
             real = [r for r in found if r.data == "real"]
             chosen = real or found
@@ -186,6 +199,10 @@ def build_cells(inputs: Inputs, results_dir: Path, runs_dir: Path) -> list[Cell]
                 _fill(cell, _one_per_seed(chosen, cell.notes), results_dir, runs_dir, refs_of_task.get(task))
                 if did_not_learn(cell):
                     cell.notes.insert(0, DID_NOT_LEARN)
+                missing = [s for s in cell.planned_seeds if s not in {r.seed for r in cell.results}]
+                if missing:
+                    cell.notes.append(f"seed{'s' * (len(missing) > 1)} {', '.join(map(str, missing))} of the "
+                                      f"planned {', '.join(map(str, cell.planned_seeds))} not evaluated yet")
             else:
                 _empty(cell, inputs.runs)
             cells.append(cell)

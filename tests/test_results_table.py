@@ -12,6 +12,7 @@ from experiments.results_table import OUTPUTS, main
 from experiments.table_cells import (
     ALGORITHMS,
     DID_NOT_LEARN,
+    GRID,
     IN_PROGRESS,
     NO_ACTIONS,
     NOT_EVALUATED,
@@ -70,6 +71,26 @@ def test_grid_has_42_rows_with_not_run_and_na(dirs):
     assert rows["HumanoidTorque.walk", "gail"].status == NOT_RUN  # torque motors: inverse dynamics works
     assert rows["UnitreeH1.walk", "bc"].status == NOT_RUN
     assert all(not c.results and not c.figures for c in cells)
+
+
+def test_the_grid_file_leaves_out_exactly_the_rows_without_expert_actions(dirs):
+    """sweeps/table.yaml trains the rows: the pairs it excludes are the rows the table finds n/a."""
+    _, cells = table(*dirs)
+    assert GRID.exclude == {(c.task, c.algorithm) for c in cells if c.status == NO_ACTIONS}
+    assert {c.task: c.planned_seeds for c in cells}["UnitreeH1.walk"] == [0, 1, 2]
+    assert {c.task: c.planned_seeds for c in cells}["Talos.walk"] == [0]
+
+
+def test_a_row_short_of_its_planned_seeds_says_which_are_missing(dirs):
+    results, runs = dirs
+    write_eval(results, "UnitreeH1.walk", "gail", 0, np.full(50, 68.0))
+    write_eval(results, "UnitreeH1.walk", "gail", 2, np.full(50, 68.0))
+    write_eval(results, "Talos.walk", "gail", 0, np.full(50, 68.0))
+    rows, _ = table(results, runs)
+    h1, talos = rows["UnitreeH1.walk", "gail"], rows["Talos.walk", "gail"]
+    assert h1.seeds_text == "2 of 3" and "seed 1 of the planned 0, 1, 2 not evaluated yet" in h1.notes
+    assert talos.seeds_text == "1" and not any("planned" in n for n in talos.notes)
+    assert rows["Atlas.walk", "gail"].seeds_text == "-"
 
 
 def test_an_evaluation_lands_in_its_row(dirs):

@@ -13,6 +13,7 @@ import yaml
 
 from baselines.training import load_checkpoint
 from experiments import sweep
+from experiments.land_run import PARKED_FILES
 from experiments.sweep_plan import (
     DirState,
     RunDirConflict,
@@ -125,8 +126,10 @@ def test_from_parked_continues_a_parked_run_and_refuses_another_configuration(lo
     parked_root = tmp_path / "results_runs"
     source = parked_root / "UnitreeH1.walk.perfect_bc"  # land_run.py's name: <task>_<algo>
     source.mkdir(parents=True)
-    for name in ("checkpoint.pt", "config.yaml", "progress.csv", "machines.csv"):
-        shutil.copy2(trained.out_dir / name, source / name)
+    for name in PARKED_FILES:  # what land_run.py --park commits, where the run has it
+        if (trained.out_dir / name).exists():
+            shutil.copy2(trained.out_dir / name, source / name)
+    assert sorted(p.name for p in source.iterdir()) == ["checkpoint.pt", "config.yaml", "machines.csv", "progress.csv"]
     (source / "snapshots" / "100").mkdir(parents=True)
     (source / "snapshots" / "100" / "card.json").write_text("{}")
     parked = files(parked_root)
@@ -148,6 +151,19 @@ def test_from_parked_continues_a_parked_run_and_refuses_another_configuration(lo
                        "--from-parked", str(parked_root)]) == 2
     assert "1 parked runs conflict with this sweep; nothing was copied" in capsys.readouterr().err
     assert not out.exists()
+
+    # --plan says what the sweep would do, and copies, starts and writes nothing
+    assert sweep.main([*TINY, "--steps", "300", "--out", str(out), "--from-parked", str(parked_root), "--plan"]) == 0
+    printed = capsys.readouterr().out
+    assert "to resume" in printed and "200 / 300" in printed and f"from the state parked in {source}" in printed
+    assert "left to train: 0 environment steps and 100 gradient steps; nothing was started or written" in printed
+    assert sweep.main([*TINY, "--steps", "300", "--out", str(out), "--set", "agent.lr=0.01",
+                       "--from-parked", str(parked_root), "--plan"]) == 2
+    printed = capsys.readouterr().out
+    assert "conflict" in printed and "agent.lr: 0.001 in the folder" in printed and "1 in conflict" in printed
+    assert sweep.main([*TINY, "--steps", "300", "--out", str(out), "--plan"]) == 0
+    assert "to start" in capsys.readouterr().out
+    assert not out.exists() and files(parked_root) == parked
     assert sweep.main([*TINY, "--steps", "300", "--out", str(out), "--from-parked", str(parked_root)]) == 0
     captured = capsys.readouterr()
     assert f"continues the run parked in {source} at 200 steps" in captured.err
@@ -157,6 +173,9 @@ def test_from_parked_continues_a_parked_run_and_refuses_another_configuration(lo
     assert [r["step"] for r in log_rows(run)] == ["100", "200", "300"]
     assert log_rows(run)[:2] == log_rows(source)  # resumed from the parked state, not restarted
     assert files(parked_root) == parked  # the parked state itself is never written
+    assert sweep.main([*TINY, "--steps", "300", "--out", str(out), "--from-parked", str(parked_root), "--plan"]) == 0
+    printed = capsys.readouterr().out
+    assert "done before" in printed and "300 / 300" in printed and "0 gradient steps" in printed
 
 
 # ---- sweep files and options ----------------------------------------------------------------------------
@@ -170,7 +189,39 @@ def test_sweep_file_and_command_line_merge(tmp_path):
     assert spec.overrides["agent"] == {"max_kl": 0.01, "std_0": 0.3}
 
 
+def test_a_sweep_file_plans_seeds_per_task_and_leaves_pairs_out(tmp_path):
+    path = tmp_path / "grid.yaml"
+    path.write_text("tasks: [UnitreeH1.walk, Talos.walk]\nalgos: [vail, bc]\nseeds: [0]\n"
+                    "seeds_by_task: {UnitreeH1.walk: [0, 1, 2]}\nexclude: [Talos.walk/bc]\n")
+    spec = build_spec(read_sweep_file(path), {})
+    assert spec.seeds_of("UnitreeH1.walk") == [0, 1, 2] and spec.seeds_of("Talos.walk") == [0]
+    assert spec.runs() == [("UnitreeH1.walk", "vail", 0), ("UnitreeH1.walk", "vail", 1), ("UnitreeH1.walk", "vail", 2),
+                           ("UnitreeH1.walk", "bc", 0), ("UnitreeH1.walk", "bc", 1), ("UnitreeH1.walk", "bc", 2),
+                           ("Talos.walk", "vail", 0)]
+    assert [t.key for t in make_trials(spec)][-2:] == ["UnitreeH1.walk/bc/seed2", "Talos.walk/vail/seed0"]
+    # --seeds replaces every task's seeds; --tasks keeps the file's per-task entries for the tasks it names
+    assert build_spec(read_sweep_file(path), {"seeds": [5]}).runs() == [
+        ("UnitreeH1.walk", "vail", 5), ("UnitreeH1.walk", "bc", 5), ("Talos.walk", "vail", 5)]
+    assert build_spec(read_sweep_file(path), {"tasks": ["Talos.walk"]}).runs() == [("Talos.walk", "vail", 0)]
+    for text, match in [("seeds_by_task: {Talos.wakl: [1]}", r"seeds_by_task: 'Talos.wakl' names 'Talos.wakl', "
+                                                              r"which is not in the sweep; valid: UnitreeH1.walk"),
+                        ("exclude: [Talos.walk/vial]", r"exclude: 'Talos.walk/vial' names 'vial'.*valid: vail, bc")]:
+        path.write_text(f"tasks: [UnitreeH1.walk, Talos.walk]\nalgos: [vail, bc]\n{text}\n")
+        with pytest.raises(SweepSpecError, match=match):
+            build_spec(read_sweep_file(path), {})
+
+
+def test_the_table_grid_file_is_a_valid_sweep():
+    spec = build_spec(read_sweep_file(Path(sweep.REPO) / "sweeps" / "table.yaml"), {})
+    runs = spec.runs()
+    assert len(runs) == len(set(runs)) == 40 + 2 * 7  # 6 x 7 cells less 2 n/a, with two more seeds on UnitreeH1.walk
+    assert spec.threads == 1 and spec.cpus_per_trial == 1
+
+
 @pytest.mark.parametrize("text, match", [
+    ("seeds_by_task: [0, 1]\n", r"seeds_by_task must map task names to lists of seeds"),
+    ("seeds_by_task: {UnitreeH1.walk: [a]}\n", r"seeds_by_task: UnitreeH1.walk must be a non-empty list of integers"),
+    ("exclude: [UnitreeH1.walk]\n", r"exclude must be a list of TASK/ALGO pairs"),
     ("tasks: [UnitreeH1.walk]\nalgo: [vail]\n", r"unknown key 'algo' \(did you mean 'algos'\?\); valid keys: tasks"),
     ("tasks: [UnitreeH1.walk]\nseeds: [0, one]\n", r"seeds must be a non-empty list of integers.*got \[0, 'one'\]"),
     ("tasks: []\n", r"tasks must be a non-empty list of names"),
