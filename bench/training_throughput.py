@@ -349,14 +349,16 @@ def offpolicy_section(args: argparse.Namespace) -> None:
     flops: dict[str, float] = {}
     for _ in range(args.repeats):
         for variant in args.off_variants:
-            core, collection_rate = build_offpolicy(env, variant, args.off_warmup)
-            collect[variant].append(collection_rate)
-            rate, cpu_rate = timed_offpolicy_run(core, args.off_steps)
+            with gemm.backend(args.products):
+                core, collection_rate = build_offpolicy(env, variant, args.off_warmup)
+                collect[variant].append(collection_rate)
+                rate, cpu_rate = timed_offpolicy_run(core, args.off_steps)
             loop[variant].append(rate)
             cpu[variant].append(cpu_rate)
             if variant not in flops:
                 flops[variant] = flops_per_step(core)
     ceiling, onednn_ceiling = gemm_ceiling("torch"), gemm_ceiling("onednn")
+    print(f"  products: --products {args.products} (oneDNN preferred on this processor: {gemm.ONEDNN_PREFERRED})")
     print(f"\n  {'variant':30s} {'steps/s = updates/s, each run':30s} {'best':>7s} {'ms/step':>8s} "
           f"{'CPU ms/step':>12s} {'collection only, steps/s':>25s} {'GFLOP/step':>11s} {'GFLOP/s (CPU)':>14s}")
     for variant in args.off_variants:
@@ -364,16 +366,18 @@ def offpolicy_section(args: argparse.Namespace) -> None:
         print(f"  {OFF_LABELS[variant]:30s} {', '.join(f'{r:.1f}' for r in loop[variant]):30s} {best:7.1f} "
               f"{1e3 / best:8.2f} {1e3 / max(cpu[variant]):12.2f} {max(collect[variant]):25,.0f} "
               f"{flops[variant] / 1e9:11.3f} {flops[variant] * max(cpu[variant]) / 1e9:14.1f}")
+    ours = "oneDNN" if gemm.ONEDNN_PREFERRED else "torch.mm"
     print(f"  matrix-product ceiling of this core ([1024, 256] @ [256, 256], per CPU second): torch.mm (Mushroom's) "
-          f"{ceiling / 1e9:.1f} GFLOP/s, oneDNN (ours) {onednn_ceiling / 1e9:.1f} GFLOP/s")
+          f"{ceiling / 1e9:.1f} GFLOP/s, oneDNN {onednn_ceiling / 1e9:.1f} GFLOP/s; ours with auto: {ours}")
     if "sac" in loop:
         sac, sac_cpu = max(loop["sac"]), max(cpu["sac"])
         for variant in (v for v in args.off_variants if v != "sac"):
             ratio, cpu_ratio = max(loop[variant]) / sac, max(cpu[variant]) / sac_cpu
-            bound = onednn_ceiling / flops[variant] / sac_cpu  # ours at oneDNN's ceiling, against SAC per CPU second
+            top = onednn_ceiling if gemm.ONEDNN_PREFERRED else ceiling  # our products' library
+            bound = top / flops[variant] / sac_cpu  # ours at that ceiling, against SAC per CPU second
             print(f"  speed-up {OFF_LABELS[variant]} / Mushroom SAC: {ratio:.2f}x (per CPU second {cpu_ratio:.2f}x; "
                   f"goal >= 2x: {'met' if ratio >= 2 else 'NOT met'}; at most {bound:.2f}x with its "
-                  f"{flops[variant] / flops['sac']:.2f}x of SAC's FLOPs at oneDNN's ceiling)")
+                  f"{flops[variant] / flops['sac']:.2f}x of SAC's FLOPs at {ours}'s ceiling)")
 
 
 def onpolicy_section(args: argparse.Namespace) -> None:
@@ -398,7 +402,9 @@ def onpolicy_section(args: argparse.Namespace) -> None:
     results: dict[Variant, list[tuple[float, float]]] = {v: [] for v in variants}
     for _ in range(args.repeats):  # alternate, so that a disturbance hits every variant alike
         for variant in variants:
-            results[variant].append(timed_run(build(env, variant, args.warmup, args.collect_only), args.steps))
+            with gemm.backend(args.products):
+                results[variant].append(timed_run(build(env, variant, args.warmup, args.collect_only), args.steps))
+    print(f"  products: --products {args.products} (oneDNN preferred on this processor: {gemm.ONEDNN_PREFERRED})")
     print(f"\n  {'variant':58s} {'env steps/s of each run':26s} {'best':>7s} {'per CPU-s, best':>16s}")
     for variant, runs in results.items():
         print(f"  {label(variant):58s} {', '.join(f'{r:,.0f}' for r, _ in runs):26s} {max(r for r, _ in runs):7,.0f} "
@@ -442,6 +448,10 @@ def main() -> None:
     parser.add_argument("--off-warmup", type=int, default=2_000, help="collection steps before the updates start")
     parser.add_argument("--off-threads", type=int, default=1, help="torch threads of the off-policy runs")
     parser.add_argument("--off-variants", nargs="+", choices=OFF_VARIANTS, default=list(OFF_VARIANTS[:4]))
+    parser.add_argument("--products", choices=gemm.BACKENDS, default="auto",
+                        help="where our learners' matrix products run (baselines.common.gemm.backend): auto (this "
+                             "processor's faster library), onednn-large (oneDNN for large ones, the rule before "
+                             "2026-11-29), onednn or torch")
     args = parser.parse_args()
     if args.section in ("all", "onpolicy"):
         onpolicy_section(args)

@@ -22,16 +22,21 @@ def test_linear_matches_torch_for_strided_operands(relu):
     assert torch.allclose(weight_grad, x.t() @ x[:, :40], rtol=1e-5, atol=1e-4)
 
 
-def test_auto_keeps_small_products_on_torch_and_large_ones_on_onednn():
-    assert not gemm._use_onednn(4, 8, 3) and gemm._use_onednn(1024, 256, 256)
+def test_auto_keeps_small_products_on_torch_and_large_ones_where_onednn_is_faster():
+    assert not gemm._use_onednn(4, 8, 3) and gemm._use_onednn(1024, 256, 256) == gemm.ONEDNN_PREFERRED
+    # "auto" takes oneDNN only where it beat MKL: AVX-512 on AMD (not AVX2 there, not Intel's AVX-512)
+    assert gemm.onednn_preferred("AVX512", "AuthenticAMD")
+    assert not gemm.onednn_preferred("AVX2", "AuthenticAMD") and not gemm.onednn_preferred("AVX512", "GenuineIntel")
     with gemm.backend("onednn"):
         assert gemm._use_onednn(4, 8, 3)
+    with gemm.backend("onednn-large"):  # the rule before processors were told apart
+        assert not gemm._use_onednn(4, 8, 3) and gemm._use_onednn(1024, 256, 256)
     with gemm.backend("torch"):
         assert not gemm._use_onednn(1024, 256, 256)
 
 
 def test_backend_rejects_unknown_names_and_restores_the_previous_one():
-    with pytest.raises(ValueError, match="unknown matrix-product backend 'mkl'; valid: auto, onednn, torch"):
+    with pytest.raises(ValueError, match="unknown matrix-product backend 'mkl'; valid: auto, onednn, onednn-large, torch"):
         with gemm.backend("mkl"):
             pass
     with gemm.backend("torch"):

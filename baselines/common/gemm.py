@@ -5,7 +5,9 @@ on one Zen 5 core for ``[1024, 256] @ [256, 256]``, where oneDNN (also inside th
 ``torch.ops.mkldnn._linear_pointwise``) runs AVX-512 kernels at 205-248 GFLOP/s, in full fp32 (no reduced-precision
 math mode), for the three shapes of a layer's forward, input-gradient and weight-gradient products (transposed
 operands are passed as strided views, no copies). Small products stay with ``torch.mm``: oneDNN's ~10 us call
-costs more than it saves below ~1M multiply-adds.
+costs more than it saves below ~1M multiply-adds. On an AVX2 processor (Zen 2/3, no AVX-512) it is the other way
+round: MKL ran those three shapes at 78-84 GFLOP/s per core against oneDNN's 56-74, so ``"auto"`` sends products to
+oneDNN only on AMD processors with AVX-512 (:data:`ONEDNN_PREFERRED`); on Intel, MKL has AVX-512 kernels of its own.
 
 :func:`linear` is ``act(x @ w.T + b)`` (``F.linear``'s layout, bias and ReLU fused); :func:`mm` is ``a @ b``;
 :class:`Linear` is ``nn.Linear`` on them, differentiable (what :func:`~baselines.common.networks.build_mlp` builds).
@@ -20,21 +22,44 @@ from collections.abc import Iterator
 import torch
 from torch import nn
 
-BACKENDS = ("auto", "onednn", "torch")
+BACKENDS = ("auto", "onednn", "onednn-large", "torch")
 MIN_ONEDNN_MACS = 1 << 20  # below it torch.mm wins (measured: 512x256x1 7.7 against 15 us; 1024x68x256 372 against 176)
 
 _ONEDNN_AVAILABLE = torch.backends.mkldnn.is_available() and hasattr(torch.ops.mkldnn, "_linear_pointwise")
+
+
+def cpu_vendor() -> str:
+    """The processor's vendor string (``AuthenticAMD``, ``GenuineIntel``), or ``""`` where /proc/cpuinfo is absent."""
+    try:
+        with open("/proc/cpuinfo") as handle:
+            for line in handle:
+                if line.startswith("vendor_id"):
+                    return line.partition(":")[2].strip()
+    except OSError:
+        pass
+    return ""
+
+
+def onednn_preferred(capability: str, vendor: str) -> bool:
+    """Whether ``"auto"`` uses oneDNN for large products on a processor with torch's ``capability`` ("AVX512",
+    "AVX2", ...) from ``vendor``: only where it was measured faster than MKL, AVX-512 on AMD."""
+    return _ONEDNN_AVAILABLE and capability == "AVX512" and vendor == "AuthenticAMD"
+
+
+ONEDNN_PREFERRED = onednn_preferred(torch.backends.cpu.get_cpu_capability(), cpu_vendor())
 _backend = "auto"
 
 
 @contextlib.contextmanager
 def backend(name: str) -> Iterator[None]:
-    """Within the block, products run on ``name``: ``"auto"`` (oneDNN for large products, where present), ``"onednn"``
-    (all products; an error if this torch has no oneDNN) or ``"torch"`` (``torch.mm`` / ``torch.addmm``)."""
+    """Within the block, products run on ``name``: ``"auto"`` (oneDNN for large products where
+    :data:`ONEDNN_PREFERRED`, else torch's), ``"onednn"`` (all products; an error if this torch has no oneDNN),
+    ``"onednn-large"`` (large products on oneDNN whatever the processor: ``"auto"`` before 2026-11-29, kept for
+    benchmarks) or ``"torch"`` (``torch.mm`` / ``torch.addmm``)."""
     global _backend
     if name not in BACKENDS:
         raise ValueError(f"unknown matrix-product backend {name!r}; valid: {', '.join(BACKENDS)}")
-    if name == "onednn" and not _ONEDNN_AVAILABLE:
+    if name.startswith("onednn") and not _ONEDNN_AVAILABLE:
         raise RuntimeError("this torch build has no oneDNN (torch.backends.mkldnn.is_available() is False)")
     previous, _backend = _backend, name
     try:
@@ -44,8 +69,9 @@ def backend(name: str) -> Iterator[None]:
 
 
 def _use_onednn(rows: int, inner: int, cols: int) -> bool:
-    if _backend == "auto":
-        return _ONEDNN_AVAILABLE and rows * inner * cols >= MIN_ONEDNN_MACS
+    if _backend in ("auto", "onednn-large"):
+        preferred = ONEDNN_PREFERRED if _backend == "auto" else _ONEDNN_AVAILABLE
+        return preferred and rows * inner * cols >= MIN_ONEDNN_MACS
     return _backend == "onednn"
 
 
