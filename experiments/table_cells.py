@@ -199,14 +199,24 @@ def build_cells(inputs: Inputs, results_dir: Path, runs_dir: Path) -> list[Cell]
                 _fill(cell, _one_per_seed(chosen, cell.notes), results_dir, runs_dir, refs_of_task.get(task))
                 if did_not_learn(cell):
                     cell.notes.insert(0, DID_NOT_LEARN)
-                missing = [s for s in cell.planned_seeds if s not in {r.seed for r in cell.results}]
-                if missing:
-                    cell.notes.append(f"seed{'s' * (len(missing) > 1)} {', '.join(map(str, missing))} of the "
-                                      f"planned {', '.join(map(str, cell.planned_seeds))} not evaluated yet")
+                _note_seeds(cell)
             else:
                 _empty(cell, inputs.runs)
             cells.append(cell)
     return cells
+
+
+def _note_seeds(cell: Cell) -> None:
+    """Name the planned seeds the row has no evaluation of, and the pooled seeds the grid does not plan."""
+    found, planned = [r.seed for r in cell.results], cell.planned_seeds
+    listed = ", ".join(map(str, planned))
+    missing = [s for s in planned if s not in found]
+    extra = [s for s in found if s not in planned]
+    if missing:
+        cell.notes.append(f"seed{'s' * (len(missing) > 1)} {', '.join(map(str, missing))} of the planned {listed} "
+                          f"not evaluated yet")
+    if extra:
+        cell.notes.append(f"seed{'s' * (len(extra) > 1)} {', '.join(map(str, extra))} outside the planned {listed}")
 
 
 def did_not_learn(cell: Cell) -> bool:
