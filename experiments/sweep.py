@@ -33,6 +33,7 @@ sys.path.insert(0, str(REPO))  # run from a checkout without installing
 
 from baselines.config import ConfigError  # noqa: E402
 from experiments.sweep_plan import (  # noqa: E402
+    DirState,
     RunDirConflict,
     Trial,
     adopt_parked,
@@ -164,9 +165,7 @@ def main(argv: list[str] | None = None) -> int:
 def _parked_sources(trials: list[Trial], parked_root: Path) -> dict[str, tuple[Path, int] | None] | None:
     """Per trial key, the parked state (folder, steps) its empty folder would start from; None, the errors printed,
     when ``parked_root`` is missing or one of those states has another configuration (then nothing is copied)."""
-    if not parked_root.is_dir():
-        print(f"error: --from-parked {parked_root}: no such folder; give the folder land_run.py --park writes "
-              f"into (default {PARKED.relative_to(REPO)})", file=sys.stderr)
+    if _missing(parked_root):
         return None
     sources, conflicts = {}, []
     for trial in trials:
@@ -186,29 +185,22 @@ def _parked_sources(trials: list[Trial], parked_root: Path) -> dict[str, tuple[P
 def _print_plan(trials: list[Trial], parked_root: Path | None, out: Path) -> int:
     """``--plan``: the table of what each trial would do and the steps left; a trial whose folder or parked state
     holds another configuration is listed as a conflict (exit 2), as the sweep itself would refuse it."""
-    if parked_root is not None and not parked_root.is_dir():
-        print(f"error: --from-parked {parked_root}: no such folder", file=sys.stderr)
+    if parked_root is not None and _missing(parked_root):
         return 2
     rows, conflicts = [], []
     for trial in trials:
-        row = TrialStatus(trial.key, trial.run.train.n_steps)
         try:
-            state = inspect_run_dir(trial)
+            row = _row(trial, inspect_run_dir(trial))
             source = None if parked_root is None else parked_source(trial, parked_root)
         except RunDirConflict as err:
             conflicts.append(str(err))
-            row.state, row.note = "conflict", str(err).removeprefix(f"{trial.key}: ")
-            rows.append(row)
+            rows.append(TrialStatus(trial.key, trial.run.train.n_steps, state="conflict",
+                                    note=str(err).removeprefix(f"{trial.key}: ")))
             continue
-        row.steps = state.steps
-        if state.kind == "finished":
-            row.state, row.score = "done before", last_score(trial.out_dir)
-        elif source is not None:
-            row.state, row.steps, row.note = "to resume", source[1], f"from the state parked in {source[0]}"
-        elif state.kind == "resume":
-            row.state, row.note = "to resume", "from its checkpoint"
-        else:
-            row.state = "to start"
+        if row.state != "done before":
+            row.state = "to resume" if source is not None or row.steps else "to start"
+            if source is not None:
+                row.steps, row.note = source[1], f"from the state parked in {source[0]}"
         rows.append(row)
     print(render(rows, None))
     from baselines import ALGORITHMS
@@ -227,18 +219,33 @@ def _plan(trials: list[Trial]) -> tuple[list[TrialStatus], list[tuple[Trial, Tri
     rows, todo, conflicts = [], [], []
     for trial in trials:
         try:
-            state = inspect_run_dir(trial)
+            row = _row(trial, inspect_run_dir(trial))
         except RunDirConflict as err:
             conflicts.append(str(err))
             continue
-        row = TrialStatus(trial.key, trial.run.train.n_steps, steps=state.steps)
-        if state.kind == "finished":
-            row.state, row.score = "done before", last_score(trial.out_dir)
-        else:
+        if row.state != "done before":
             todo.append((trial, row))
-            row.note = "resumes its checkpoint" if state.kind == "resume" else ""
         rows.append(row)
     return rows, todo, conflicts
+
+
+def _row(trial: Trial, state: DirState) -> TrialStatus:
+    """The table row of a trial whose folder holds ``state``: done before (with its last score) or pending."""
+    row = TrialStatus(trial.key, trial.run.train.n_steps, steps=state.steps)
+    if state.kind == "finished":
+        row.state, row.score = "done before", last_score(trial.out_dir)
+    elif state.kind == "resume":
+        row.note = "resumes its checkpoint"
+    return row
+
+
+def _missing(parked_root: Path) -> bool:
+    """Whether the ``--from-parked`` folder is missing (said on stderr)."""
+    if parked_root.is_dir():
+        return False
+    print(f"error: --from-parked {parked_root}: no such folder; give the folder land_run.py --park writes into "
+          f"(default {PARKED.relative_to(REPO)})", file=sys.stderr)
+    return True
 
 
 def _init_ray(ray: ModuleType, args: argparse.Namespace) -> None:

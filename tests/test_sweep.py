@@ -163,6 +163,9 @@ def test_from_parked_continues_a_parked_run_and_refuses_another_configuration(lo
     assert "conflict" in printed and "agent.lr: 0.001 in the folder" in printed and "1 in conflict" in printed
     assert sweep.main([*TINY, "--steps", "300", "--out", str(out), "--plan"]) == 0
     assert "to start" in capsys.readouterr().out
+    assert sweep.main([*TINY, "--steps", "300", "--out", str(tmp_path / "unit"), "--plan"]) == 0  # adopted above
+    printed = capsys.readouterr().out
+    assert "to resume" in printed and "200 / 300" in printed and "resumes its checkpoint" in printed
     assert not out.exists() and files(parked_root) == parked
     assert sweep.main([*TINY, "--steps", "300", "--out", str(out), "--from-parked", str(parked_root)]) == 0
     captured = capsys.readouterr()
