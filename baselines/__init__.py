@@ -32,6 +32,11 @@ from baselines.vail.vail import VAIL, VAILConfig
 ALGORITHMS = {"gail": GAIL, "vail": VAIL, "gaifo": GAIfO, "bc": BC, "iq_learn": IQLearn, "lsiq": LSIQ, "sqil": SQIL}
 
 
+def is_offline(algorithm: str) -> bool:
+    """Whether ``algorithm`` (a key of ``ALGORITHMS``) trains on gradient steps without environment steps (BC)."""
+    return bool(getattr(ALGORITHMS[algorithm], "offline", False))
+
+
 def make_agent(algorithm: str, env: Any, config: dict[str, Any] | None = None, seed: int = 0, **kwargs: Any):
     """Build the agent ``algorithm`` (a key of ``ALGORITHMS``) for ``env``; unknown config keys raise."""
     try:
@@ -42,4 +47,4 @@ def make_agent(algorithm: str, env: Any, config: dict[str, Any] | None = None, s
 
 
 __all__ = ["ALGORITHMS", "BC", "BCConfig", "GAIL", "GAILConfig", "GAIfO", "GAIfOConfig", "IQLearn", "IQLearnConfig",
-           "LSIQ", "LSIQConfig", "SQIL", "SQILConfig", "VAIL", "VAILConfig", "make_agent"]
+           "LSIQ", "LSIQConfig", "SQIL", "SQILConfig", "VAIL", "VAILConfig", "is_offline", "make_agent"]

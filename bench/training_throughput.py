@@ -337,6 +337,11 @@ def gemm_ceiling(backend: str = "torch", repeats: int = 5) -> float:
     return 2 * 1024 * 256 * 256 * 200 / best
 
 
+def print_products(products: str) -> None:
+    """Say where the runs' matrix products went (``--products``) and what ``auto`` picks on this processor."""
+    print(f"  products: --products {products} (oneDNN preferred on this processor: {gemm.ONEDNN_PREFERRED})")
+
+
 def offpolicy_section(args: argparse.Namespace) -> None:
     torch.set_num_threads(args.off_threads)
     env = lm.LocoEnv.make(OFF_ENV)
@@ -358,7 +363,7 @@ def offpolicy_section(args: argparse.Namespace) -> None:
             if variant not in flops:
                 flops[variant] = flops_per_step(core)
     ceiling, onednn_ceiling = gemm_ceiling("torch"), gemm_ceiling("onednn")
-    print(f"  products: --products {args.products} (oneDNN preferred on this processor: {gemm.ONEDNN_PREFERRED})")
+    print_products(args.products)
     print(f"\n  {'variant':30s} {'steps/s = updates/s, each run':30s} {'best':>7s} {'ms/step':>8s} "
           f"{'CPU ms/step':>12s} {'collection only, steps/s':>25s} {'GFLOP/step':>11s} {'GFLOP/s (CPU)':>14s}")
     for variant in args.off_variants:
@@ -404,7 +409,7 @@ def onpolicy_section(args: argparse.Namespace) -> None:
         for variant in variants:
             with gemm.backend(args.products):
                 results[variant].append(timed_run(build(env, variant, args.warmup, args.collect_only), args.steps))
-    print(f"  products: --products {args.products} (oneDNN preferred on this processor: {gemm.ONEDNN_PREFERRED})")
+    print_products(args.products)
     print(f"\n  {'variant':58s} {'env steps/s of each run':26s} {'best':>7s} {'per CPU-s, best':>16s}")
     for variant, runs in results.items():
         print(f"  {label(variant):58s} {', '.join(f'{r:,.0f}' for r, _ in runs):26s} {max(r for r, _ in runs):7,.0f} "

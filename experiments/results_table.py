@@ -26,6 +26,7 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # run from a checkout without installing
 
+from baselines import is_offline  # noqa: E402
 from experiments.table_cells import (  # noqa: E402
     ALGORITHMS,
     NAMES,
@@ -37,7 +38,6 @@ from experiments.table_cells import (  # noqa: E402
     build_cells,
     collect,
     in_grid,
-    is_offline,
 )
 from experiments.table_sources import format_steps  # noqa: E402
 from loco_mujoco.evaluation.intervals import BOOTSTRAP_REPS  # noqa: E402

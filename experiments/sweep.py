@@ -203,12 +203,12 @@ def _print_plan(trials: list[Trial], parked_root: Path | None, out: Path) -> int
                 row.steps, row.note = source[1], f"from the state parked in {source[0]}"
         rows.append(row)
     print(render(rows, None))
-    from baselines import ALGORITHMS
+    from baselines import is_offline
 
     left = {True: 0, False: 0}  # offline (gradient steps) or not (environment steps)
     for trial, row in zip(trials, rows, strict=True):
         if row.state != "conflict":
-            left[bool(getattr(ALGORITHMS[trial.run.algorithm], "offline", False))] += max(row.total - row.steps, 0)
+            left[is_offline(trial.run.algorithm)] += max(row.total - row.steps, 0)
     print(f"plan for {out}: {len(trials)} trials; left to train: {left[False]:,} environment steps and {left[True]:,} "
           f"gradient steps{f'; {len(conflicts)} in conflict' if conflicts else ''}; nothing was started or written")
     return 2 if conflicts else 0

@@ -92,13 +92,6 @@ def inverse_dynamics_refuses(task: str, control: str | None, disable_arms: bool)
     return False
 
 
-def is_offline(algorithm: str) -> bool:
-    """Whether ``algorithm`` trains on gradient steps without environment steps (BC)."""
-    from baselines import ALGORITHMS as CLASSES
-
-    return bool(getattr(CLASSES[algorithm], "offline", False))
-
-
 @dataclass
 class Inputs:
     """Every result read (evaluation files and cards) and every run directory."""
