@@ -203,8 +203,9 @@ def render_markdown(cells: list[Cell], agg: dict[str, dict[str, Any]], inputs: I
         "- **score**: normalised (0 = uniformly random policy, 100 = expert), deterministic policy, mean with a 95% "
         "studentized-bootstrap interval over the per-episode scores of all seeds pooled (50 episodes per seed); "
         "BCa where 60% or more of the values tie, as episode lengths at the horizon do.",
-        "- **seeds**: the training seeds pooled; \"k of n\" where the grid plans n (`sweeps/table.yaml`, "
-        "the sweep file that trains every row: `python experiments/sweep.py --config sweeps/table.yaml`).",
+        "- **seeds**: the training seeds pooled; \"k of n\" where k of the n seeds the grid plans have an evaluation "
+        "(`sweeps/table.yaml`, the sweep file that trains every row: `python experiments/sweep.py --config "
+        "sweeps/table.yaml`), \"+ m\" for m pooled seeds it does not plan.",
         "- **R**, **L**: mean return and episode length over the same episodes.",
         "- **gait dev.**: the mean relative deviation of eight gait metrics from the expert's over the same frames "
         "(each capped at 1; 0 = the expert's gait); **DTW joints** (rad) and **DTW sites** (m, pelvis height and "

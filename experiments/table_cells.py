@@ -122,11 +122,16 @@ class Cell:
 
     @property
     def seeds_text(self) -> str:
-        """How many seeds the row pools, and of how many planned where that is fewer: "1 of 3"."""
+        """How many planned seeds the row pools, "k of n" where that is fewer than planned, then "+ m" for the
+        pooled seeds the grid does not plan: "1 of 3", "3", "0 of 3 + 1"."""
         if not self.results:
             return "-"
-        found, planned = len(self.results), len(self.planned_seeds)
-        return f"{found} of {planned}" if found < planned else str(found)
+        seeds = {r.seed for r in self.results}
+        planned = len(self.planned_seeds)
+        found = len(seeds & set(self.planned_seeds))
+        text = f"{found} of {planned}" if found < planned else str(found)
+        extra = len(seeds) - found
+        return f"{text} + {extra}" if extra else text
 
     @property
     def data(self) -> str | None:

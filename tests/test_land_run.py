@@ -92,7 +92,7 @@ def test_landing_writes_everything_from_one_evaluation_and_never_overwrites(fini
     table = (results / "table.md").read_text()
     score = evaluation["deterministic"]["score"]["mean"]
     row = next(line for line in table.splitlines() if line.startswith("| UnitreeH1.walk | GAIfO |"))
-    assert f"{score:.1f}" in row and "| 1 of 3 |" in row and "seed 3 outside the planned 0, 1, 2" in row, row
+    assert f"{score:.1f}" in row and "| 0 of 3 + 1 |" in row and "seed 3 outside the planned 0, 1, 2" in row, row
 
     before = {p: p.read_bytes() for p in results.rglob("*") if p.is_file()}
     with pytest.raises(LandingRefused, match="holds a landed run; pass --replace"):

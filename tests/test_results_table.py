@@ -86,10 +86,13 @@ def test_a_row_short_of_its_planned_seeds_says_which_are_missing(dirs):
     write_eval(results, "UnitreeH1.walk", "gail", 0, np.full(50, 68.0))
     write_eval(results, "UnitreeH1.walk", "gail", 2, np.full(50, 68.0))
     write_eval(results, "Talos.walk", "gail", 0, np.full(50, 68.0))
+    write_eval(results, "Atlas.walk", "vail", 0, np.full(50, 68.0))
+    write_eval(results, "Atlas.walk", "vail", 5, np.full(50, 68.0))
     rows, _ = table(results, runs)
-    h1, talos = rows["UnitreeH1.walk", "gail"], rows["Talos.walk", "gail"]
+    h1, talos, atlas = rows["UnitreeH1.walk", "gail"], rows["Talos.walk", "gail"], rows["Atlas.walk", "vail"]
     assert h1.seeds_text == "2 of 3" and "seed 1 of the planned 0, 1, 2 not evaluated yet" in h1.notes
     assert talos.seeds_text == "1" and not any("planned" in n for n in talos.notes)
+    assert atlas.seeds_text == "1 + 1" and "seed 5 outside the planned 0" in atlas.notes  # pooled, not planned
     assert rows["Atlas.walk", "gail"].seeds_text == "-"
 
 
