@@ -9,8 +9,11 @@ interrupted ones from their checkpoints, and for a finished sweep reports "0 tri
 ``--steps`` larger than before extends every trial. A folder holding a run with another configuration is
 refused, never overwritten. With ``--from-parked`` an empty trial folder first takes the state
 ``land_run.py --park`` committed of the same run (``results/runs/<task>_<algo>[_seed<N>]``), so that a fresh clone
-continues the table's unfinished runs. A live table shows each trial (pending, running with its step count, finished,
-failed with the error's last line); the exit status is 1 if any trial failed.
+continues the table's unfinished runs; with ``--skip-landed`` a trial whose run ``land_run.py`` already exported
+(``pretrained/<task>/<algo>/seed<N>``, at least the trial's steps) is skipped and shown as landed, with the
+configuration values its export differs in. So ``sweep.py --config sweeps/table.yaml --from-parked --skip-landed``
+trains what the results table still lacks. A live table shows each trial (pending, running with its step count,
+finished, failed with the error's last line); the exit status is 1 if any trial failed.
 
 Ray starts locally with ``--num-cpus`` CPUs (default: all) and nothing to set up; ``--address HOST:PORT`` joins a
 cluster started with ``ray start`` (see the README's "Sweeps": the out folder must be on storage every machine
@@ -34,10 +37,12 @@ sys.path.insert(0, str(REPO))  # run from a checkout without installing
 from baselines.config import ConfigError  # noqa: E402
 from experiments.sweep_plan import (  # noqa: E402
     DirState,
+    Landed,
     RunDirConflict,
     Trial,
     adopt_parked,
     inspect_run_dir,
+    landed_export,
     last_score,
     make_trials,
     parked_source,
@@ -70,6 +75,10 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--from-parked", nargs="?", const=str(PARKED), metavar="DIR",
                         help="start each trial whose folder is empty from the same run's parked state in "
                              f"DIR/<task>_<algo>[_seed<N>] (default DIR: {PARKED.relative_to(REPO)})")
+    parser.add_argument("--skip-landed", nargs="?", const="", metavar="DIR",
+                        help="skip each trial whose run land_run.py exported to DIR/<task>/<algo>/seed<N> with at "
+                             "least the trial's steps, listing the configuration values the export differs in "
+                             "(default DIR: $LOCO_MUJOCO_PRETRAINED or pretrained/)")
     parser.add_argument("--plan", action="store_true",
                         help="print what each trial would do (start, resume from its checkpoint or a parked state, "
                              "or nothing: finished) and the steps left, then exit: nothing is started or written "
@@ -107,9 +116,13 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     for text in notes:
         print(f"note: {text}", file=sys.stderr)
+    landed = {} if args.skip_landed is None else _landed(trials, _pretrained_root(args.skip_landed))
+    if landed is None:
+        return 2
     if args.plan:
-        return _print_plan(trials, None if args.from_parked is None else Path(args.from_parked), spec.out)
-    parked = {} if args.from_parked is None else _parked_sources(trials, Path(args.from_parked))
+        return _print_plan(trials, None if args.from_parked is None else Path(args.from_parked), spec.out, landed)
+    parked = {} if args.from_parked is None else _parked_sources([t for t in trials if t.key not in landed],
+                                                                 Path(args.from_parked))
     if parked is None:
         return 2
     try:
@@ -123,7 +136,7 @@ def main(argv: list[str] | None = None) -> int:
             adopt_parked(trial, source)
             print(f"note: {trial.key} continues the run parked in {source} at {steps:,} steps", file=sys.stderr)
 
-    rows, todo, conflicts = _plan(trials)
+    rows, todo, conflicts = _plan(trials, landed)
     if conflicts:
         for text in conflicts:
             print(f"error: {text}", file=sys.stderr)
@@ -132,11 +145,12 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     done = len(trials) - len(todo)
     resumed = sum(row.steps > 0 for _, row in todo)
+    skipped = f" ({len(landed)} of them landed)" if landed else ""
     print(f"sweep of {len(trials)} trials in {spec.out}: {len(todo)} to run ({resumed} resumed), "
-          f"{done} already finished", flush=True)
+          f"{done} already finished{skipped}", flush=True)
     if not todo:
         LiveTable(interactive=False).close(rows)
-        print(f"0 trials run: all {done} trials had already finished")
+        print(f"0 trials run: all {done} trials had already finished{skipped}")
         return 0
 
     previous_handler = signal.signal(signal.SIGTERM, _stop_on_sigterm)
@@ -182,13 +196,70 @@ def _parked_sources(trials: list[Trial], parked_root: Path) -> dict[str, tuple[P
     return sources
 
 
-def _print_plan(trials: list[Trial], parked_root: Path | None, out: Path) -> int:
+def _pretrained_root(value: str) -> Path:
+    """``--skip-landed``'s folder: the one given, else the pretrained folder land_run.py exports into."""
+    if value:
+        return Path(value)
+    from loco_mujoco.agent_datasets import pretrained_root
+
+    return pretrained_root()
+
+
+def _landed(trials: list[Trial], pretrained: Path) -> dict[str, Landed] | None:
+    """Per trial key, its landed export (``--skip-landed``); None, the errors printed, when ``pretrained`` is
+    missing or an export there cannot be read."""
+    if not pretrained.is_dir():
+        print(f"error: --skip-landed {pretrained}: no such folder; give the folder land_run.py exports into "
+              "(default: $LOCO_MUJOCO_PRETRAINED or pretrained/)", file=sys.stderr)
+        return None
+    landed, errors = {}, []
+    for trial in trials:
+        try:
+            export = landed_export(trial, pretrained)
+        except RunDirConflict as err:
+            errors.append(str(err))
+            continue
+        if export is not None:
+            landed[trial.key] = export
+    for text in errors:
+        print(f"error: {text}", file=sys.stderr)
+    return None if errors else landed
+
+
+def _landed_row(trial: Trial, export: Landed) -> TrialStatus:
+    """The table row of a trial skipped for its landed export, naming the configuration values that differ."""
+    note = f"exported in {_shown_path(export.folder)}"
+    if export.differences:
+        shown = "; ".join(_clipped(d) for d in export.differences[:3])
+        more = f"; and {len(export.differences) - 3} more" if len(export.differences) > 3 else ""
+        note += f", with another configuration: {shown}{more}"
+    return TrialStatus(trial.key, trial.run.train.n_steps, state="landed", steps=export.steps, score=export.score,
+                       note=note)
+
+
+def _shown_path(path: Path) -> str:
+    """``path`` relative to the working folder where it lies below it, else as it is."""
+    try:
+        return str(path.resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(path)
+
+
+def _clipped(text: str, width: int = 160) -> str:
+    """``text`` cut to ``width`` characters (a nested value such as ``init_from`` can run to thousands)."""
+    return text if len(text) <= width else text[:width - 3] + "..."
+
+
+def _print_plan(trials: list[Trial], parked_root: Path | None, out: Path, landed: dict[str, Landed]) -> int:
     """``--plan``: the table of what each trial would do and the steps left; a trial whose folder or parked state
     holds another configuration is listed as a conflict (exit 2), as the sweep itself would refuse it."""
     if parked_root is not None and _missing(parked_root):
         return 2
     rows, conflicts = [], []
     for trial in trials:
+        if trial.key in landed:
+            rows.append(_landed_row(trial, landed[trial.key]))
+            continue
         try:
             row = _row(trial, inspect_run_dir(trial))
             source = None if parked_root is None else parked_source(trial, parked_root)
@@ -207,17 +278,25 @@ def _print_plan(trials: list[Trial], parked_root: Path | None, out: Path) -> int
 
     left = {True: 0, False: 0}  # offline (gradient steps) or not (environment steps)
     for trial, row in zip(trials, rows, strict=True):
-        if row.state != "conflict":
+        if row.state not in ("conflict", "landed"):
             left[is_offline(trial.run.algorithm)] += max(row.total - row.steps, 0)
-    print(f"plan for {out}: {len(trials)} trials; left to train: {left[False]:,} environment steps and {left[True]:,} "
-          f"gradient steps{f'; {len(conflicts)} in conflict' if conflicts else ''}; nothing was started or written")
+    other = sum(bool(e.differences) for e in landed.values())
+    skipped = f"; {len(landed)} landed ({other} with another configuration)" if landed else ""
+    print(f"plan for {out}: {len(trials)} trials{skipped}; left to train: {left[False]:,} environment steps and "
+          f"{left[True]:,} gradient steps{f'; {len(conflicts)} in conflict' if conflicts else ''}; nothing was "
+          "started or written")
     return 2 if conflicts else 0
 
 
-def _plan(trials: list[Trial]) -> tuple[list[TrialStatus], list[tuple[Trial, TrialStatus]], list[str]]:
-    """Every trial's row, the trials still to run (new or resumed) and the folders that hold another run."""
+def _plan(trials: list[Trial], landed: dict[str, Landed]
+          ) -> tuple[list[TrialStatus], list[tuple[Trial, TrialStatus]], list[str]]:
+    """Every trial's row, the trials still to run (new or resumed: not landed) and the folders that hold another
+    run."""
     rows, todo, conflicts = [], [], []
     for trial in trials:
+        if trial.key in landed:
+            rows.append(_landed_row(trial, landed[trial.key]))
+            continue
         try:
             row = _row(trial, inspect_run_dir(trial))
         except RunDirConflict as err:

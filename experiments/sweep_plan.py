@@ -8,12 +8,14 @@ missing folder starts a new run. A folder whose run has another configuration (a
 with the keys that differ.
 
 A run parked in git (``land_run.py --park``: ``results/runs/<task>_<algo>[_seed<N>]``) can seed an empty trial
-folder, so that a fresh clone continues it (``sweep.py --from-parked``).
+folder, so that a fresh clone continues it (``sweep.py --from-parked``). A run already landed
+(``land_run.py``: its export in ``pretrained/<task>/<algo>/seed<N>``) can be skipped (``sweep.py --skip-landed``).
 """
 
 from __future__ import annotations
 
 import csv
+import json
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
@@ -58,6 +60,17 @@ class DirState:
 
     kind: str
     steps: int = 0
+
+
+@dataclass
+class Landed:
+    """A trial's run as ``land_run.py`` exported it: the export folder, its card's steps and score, and the
+    configuration values it differs in from the trial (empty: the same run)."""
+
+    folder: Path
+    steps: int
+    score: float | None
+    differences: list[str]
 
 
 def make_trials(spec: SweepSpec, note: Any = None) -> list[Trial]:
@@ -115,6 +128,27 @@ def parked_source(trial: Trial, parked_root: Path) -> tuple[Path, int] | None:
         raise RunDirConflict(f"{trial.key}: the run parked in {source} has another configuration "
                              f"({_first_differences(diffs)}); sweep without --from-parked to start this trial afresh")
     return source, int(state["steps"])
+
+
+def landed_export(trial: Trial, pretrained_root: Path) -> Landed | None:
+    """The export of ``trial``'s run in ``pretrained_root/<task>/<algo>/seed<N>`` where its card's steps reached the
+    trial's, whatever its configuration (the differences are returned, for the sweep to show); None where there is
+    none or it is shorter. An export whose card or config cannot be read raises :class:`RunDirConflict`."""
+    folder = pretrained_root / trial.run.task / trial.run.algorithm / f"seed{trial.run.seed}"
+    if not (folder / "card.json").exists():
+        return None
+    try:
+        card = json.loads((folder / "card.json").read_text())
+        steps = int(card["steps"])
+        score = (card.get("evaluation") or {}).get("score", {}).get("mean")
+    except (json.JSONDecodeError, KeyError, TypeError, ValueError) as err:
+        raise RunDirConflict(f"{trial.key}: {folder / 'card.json'} cannot be read ({err!r})") from None
+    if steps < trial.run.train.n_steps:
+        return None
+    saved = _config_yaml(folder / "config.yaml", trial)
+    differences = config_differences(saved, trial.run.to_dict())
+    return Landed(folder, steps, None if score is None else float(score),
+                  [d.replace(" in the folder,", " in the export,") for d in differences])
 
 
 def adopt_parked(trial: Trial, source: Path) -> None:
@@ -188,7 +222,7 @@ def _config_yaml(path: Path, trial: Trial) -> dict[str, Any]:
         data = yaml.safe_load(path.read_text())
         data.pop("dataset", None)
         return run_config_from_checkpoint({"run_config": data}).to_dict()
-    except (yaml.YAMLError, AttributeError, KeyError, TypeError, ValueError) as err:
+    except (OSError, yaml.YAMLError, AttributeError, KeyError, TypeError, ValueError) as err:
         raise RunDirConflict(f"{trial.key}: {path} cannot be read ({err}); the sweep leaves it alone: move the "
                              "folder away or choose another --out") from None
 

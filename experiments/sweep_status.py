@@ -14,8 +14,8 @@ import time
 from dataclasses import dataclass
 from typing import TextIO
 
-# the last three are --plan's: what a trial would do
-STATES = ("pending", "running", "finished", "failed", "done before", "to start", "to resume", "conflict")
+# "landed": skipped for its export (--skip-landed); the last three are --plan's: what a trial would do
+STATES = ("pending", "running", "finished", "failed", "done before", "landed", "to start", "to resume", "conflict")
 
 
 class ProgressBoard:

@@ -4,6 +4,7 @@ run is refused, a failing trial is shown, and malformed sweep files fail naming 
 import csv
 import hashlib
 import io
+import json
 import shutil
 import sys
 from pathlib import Path
@@ -179,6 +180,47 @@ def test_from_parked_continues_a_parked_run_and_refuses_another_configuration(lo
     assert sweep.main([*TINY, "--steps", "300", "--out", str(out), "--from-parked", str(parked_root), "--plan"]) == 0
     printed = capsys.readouterr().out
     assert "done before" in printed and "300 / 300" in printed and "0 gradient steps" in printed
+
+
+def write_export(trial: Trial, root: Path, steps: int, score: float = 1.5) -> Path:
+    """What land_run.py exports of a run, as far as --skip-landed reads it: the card and the resolved config."""
+    folder = root / trial.run.task / trial.run.algorithm / f"seed{trial.run.seed}"
+    folder.mkdir(parents=True)
+    (folder / "config.yaml").write_text(yaml.safe_dump({**trial.run.to_dict(), "dataset": {}}))
+    (folder / "card.json").write_text(json.dumps({"steps": steps, "evaluation": {"score": {"mean": score}}}))
+    return folder
+
+
+def test_skip_landed_leaves_out_exported_runs_and_names_their_other_configuration(tmp_path, capsys):
+    """sweep.py --skip-landed trains only what the table lacks: a run exported with at least the trial's steps is
+    skipped (shown with the values its configuration differs in); a shorter export is trained again."""
+    pytest.importorskip("ray", reason='the sweep extra: pip install -e ".[sweep]"')
+    pretrained, out = tmp_path / "pretrained", tmp_path / "sweep"
+    export = write_export(tiny_trial(tmp_path / "x"), pretrained, steps=200)
+    exported = files(pretrained)
+    landed = [*TINY, "--out", str(out), "--skip-landed", str(pretrained)]
+
+    assert sweep.main([*landed, "--steps", "200", "--plan"]) == 0
+    printed = capsys.readouterr().out
+    assert "landed" in printed and "200 / 200" in printed and "1.5" in printed and str(export) in printed
+    assert "1 landed (0 with another configuration); left to train: 0 environment steps and 0 gradient" in printed
+    assert sweep.main([*landed, "--steps", "200", "--set", "agent.lr=0.01", "--plan"]) == 0
+    printed = capsys.readouterr().out
+    assert "with another configuration: agent.lr: 0.001 in the export, 0.01 in this sweep" in printed
+    assert "1 landed (1 with another configuration)" in printed
+    assert sweep.main([*landed, "--steps", "300", "--plan"]) == 0  # the export is short of 300 steps
+    printed = capsys.readouterr().out
+    assert "to start" in printed and "left to train: 0 environment steps and 300 gradient steps" in printed
+
+    assert sweep.main([*landed, "--steps", "200"]) == 0  # nothing to train: Ray is not even started
+    assert "0 trials run: all 1 trials had already finished (1 of them landed)" in capsys.readouterr().out
+    assert not out.exists() and files(pretrained) == exported
+
+    assert sweep.main([*TINY, "--out", str(out), "--skip-landed", str(tmp_path / "nowhere"), "--plan"]) == 2
+    assert "nowhere: no such folder; give the folder land_run.py exports into" in capsys.readouterr().err
+    (export / "card.json").write_text("{not json")
+    assert sweep.main([*landed, "--steps", "200", "--plan"]) == 2
+    assert f"{export / 'card.json'} cannot be read" in capsys.readouterr().err
 
 
 # ---- sweep files and options ----------------------------------------------------------------------------
