@@ -257,6 +257,47 @@ def _note_divergence(cell: Cell, budgets: list[Budget]) -> None:
             cell.notes.append(f"{note}; {budget.log}" if len(budgets) > 1 else note)
 
 
+# Values a row's runs may differ in from the committed config without the note below: the budget (its own column),
+# threads, paths, a continued run's origin, and the control mode (its own column and note).
+UNREPORTED = ("seed", "sources", "init_from", "env.control", "train.n_steps", "train.snapshot_every",
+              "train.env_threads", "agent.n_threads")
+
+
+def _flat_config(config: dict[str, Any]) -> dict[str, Any]:
+    """``RunConfig.to_dict()`` as ``section.key: value``, less :data:`UNREPORTED`."""
+    flat = {}
+    for key, value in config.items():
+        if key in ("env", "train", "agent") and isinstance(value, dict):
+            flat.update({f"{key}.{k}": v for k, v in value.items()})
+        else:
+            flat[key] = value
+    return {k: v for k, v in flat.items() if k not in UNREPORTED}
+
+
+def config_changes(result: SeedResult, run_dir: Path) -> list[str]:
+    """``key value (committed: value)`` for each value the run in ``run_dir`` was trained with that the committed
+    config of its task and algorithm no longer asks for."""
+    from baselines.config import load_run_config
+    from baselines.training import run_config_from_directory
+
+    trained = _flat_config(run_config_from_directory(run_dir).to_dict())
+    committed = _flat_config(load_run_config(result.task, result.algorithm, seed=result.seed).to_dict())
+    return [f"{key} {trained.get(key, '(unset)')} (committed: {committed.get(key, '(unset)')})"
+            for key in sorted(set(trained) | set(committed)) if trained.get(key) != committed.get(key)]
+
+
+def _note_config_changes(cell: Cell, results: list[SeedResult], budgets: list[Budget]) -> None:
+    """A note per seed whose run (the folder of its training log) was configured otherwise than the committed
+    config now is, e.g. trained before a default changed."""
+    for result, budget in zip(results, budgets, strict=True):
+        if budget.log_path is None:
+            continue
+        changes = config_changes(result, budget.log_path.parent)
+        if changes:
+            seed = f"seed {result.seed} " if len(results) > 1 else ""
+            cell.notes.append(f"{seed}trained with {'; '.join(changes)}")
+
+
 def committed_control(cell: Cell) -> str | None:
     """The control that the committed config of the row's task and algorithm names (None: the task's default)."""
     from baselines.config import load_run_config
@@ -291,6 +332,7 @@ def _fill(cell: Cell, results: list[SeedResult], results_dir: Path, runs_dir: Pa
     if cell.control != committed:
         cell.notes.append(f"trained in {cell.control} control; the committed config now asks for {committed}")
     cell.budgets = [find_budget(r, runs_dir, results_dir) for r in results]
+    _note_config_changes(cell, results, cell.budgets)
     _note_divergence(cell, cell.budgets)
     if results[0].data == "perfect":
         cell.notes.insert(0, "(perfect data)")

@@ -240,6 +240,25 @@ def test_each_row_names_the_control_its_agents_act_in(dirs):
     assert not any("committed config" in n for n in rows["Atlas.walk", "vail"].notes)
 
 
+def test_a_row_trained_otherwise_than_the_committed_config_names_the_values(dirs):
+    """A row trained before a default changed says so: each value its run's config differs in from today's."""
+    from baselines.config import load_run_config
+
+    results, runs = dirs
+    for task, agent in (("Atlas.walk", {"critic_layer_norm": False, "n_threads": 4}), ("Talos.walk", {})):
+        config = load_run_config(task, "sqil").to_dict()
+        config["agent"].update(agent)  # n_threads: not reported (a resume may change it)
+        config["train"]["n_steps"] = 40_000  # the budget has its own column
+        folder = runs / f"{task}_sqil"
+        folder.mkdir()
+        (folder / "config.yaml").write_text(yaml.safe_dump(config))
+        (folder / "progress.csv").write_text("step,epoch,train_steps_per_s\n20000,1,30\n40000,2,30\n")
+        write_eval(results, task, "sqil", 0, np.full(10, 68.0), steps=40_000, stem=f"{task}_sqil")
+    rows, _ = table(results, runs)
+    assert "trained with agent.critic_layer_norm False (committed: True)" in rows["Atlas.walk", "sqil"].notes
+    assert not any(n.startswith("trained with") for n in rows["Talos.walk", "sqil"].notes)
+
+
 def test_machine_summary_names_each_machines_stretch():
     from experiments.table_sources import machine_summary
 
