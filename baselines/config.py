@@ -107,6 +107,18 @@ class RunConfig:
         return out
 
 
+def flat_config(config: dict[str, Any], leave_out: tuple[str, ...] = ()) -> dict[str, Any]:
+    """``RunConfig.to_dict()`` as ``{"section.key": value}`` for the sections, other keys as they are, less the
+    keys named in ``leave_out``: the form in which two runs' configurations are compared."""
+    flat = {}
+    for key, value in config.items():
+        if key in SECTIONS and isinstance(value, dict):
+            flat.update({f"{key}.{k}": v for k, v in value.items()})
+        else:
+            flat[key] = value
+    return {k: v for k, v in flat.items() if k not in leave_out}
+
+
 def config_path(task: str, algorithm: str, config_dir: Path = CONFIG_DIR) -> Path:
     """The task file of ``algorithm`` on ``task``: its own, or for a dataset type its base task's."""
     own = Path(config_dir) / algorithm / f"{task}.yaml"

@@ -23,7 +23,7 @@ from typing import Any
 
 import yaml
 
-from baselines.config import RunConfig
+from baselines.config import RunConfig, flat_config
 from baselines.training import CHECKPOINT, RUN_FILES, SNAPSHOTS, load_checkpoint, run_config_from_checkpoint
 from experiments.land_run import PARKED_FILES
 from experiments.launch import resolve_run, run_dir
@@ -175,7 +175,7 @@ def clear_unstarted(trial: Trial) -> None:
 
 def config_differences(saved: dict[str, Any], wanted: dict[str, Any]) -> list[str]:
     """``key: saved -> wanted`` for every compared value where two ``RunConfig.to_dict()`` differ."""
-    a, b = _flatten(saved), _flatten(wanted)
+    a, b = flat_config(saved, NOT_COMPARED), flat_config(wanted, NOT_COMPARED)
     return [f"{key}: {a.get(key, '(unset)')!r} in the folder, {b.get(key, '(unset)')!r} in this sweep"
             for key in sorted(set(a) | set(b)) if a.get(key) != b.get(key)]
 
@@ -204,16 +204,6 @@ def _held_files(out: Path) -> list[str]:
 
 def _first_differences(diffs: list[str], shown: int = 5) -> str:
     return "; ".join(diffs[:shown]) + (f"; and {len(diffs) - shown} more" if len(diffs) > shown else "")
-
-
-def _flatten(config: dict[str, Any]) -> dict[str, Any]:
-    flat = {}
-    for key, value in config.items():
-        if key in ("env", "train", "agent") and isinstance(value, dict):
-            flat.update({f"{key}.{k}": v for k, v in value.items()})
-        else:
-            flat[key] = value
-    return {k: v for k, v in flat.items() if k not in NOT_COMPARED}
 
 
 def _config_yaml(path: Path, trial: Trial) -> dict[str, Any]:

@@ -263,25 +263,14 @@ UNREPORTED = ("seed", "sources", "init_from", "env.control", "train.n_steps", "t
               "train.env_threads", "agent.n_threads")
 
 
-def _flat_config(config: dict[str, Any]) -> dict[str, Any]:
-    """``RunConfig.to_dict()`` as ``section.key: value``, less :data:`UNREPORTED`."""
-    flat = {}
-    for key, value in config.items():
-        if key in ("env", "train", "agent") and isinstance(value, dict):
-            flat.update({f"{key}.{k}": v for k, v in value.items()})
-        else:
-            flat[key] = value
-    return {k: v for k, v in flat.items() if k not in UNREPORTED}
-
-
 def config_changes(result: SeedResult, run_dir: Path) -> list[str]:
     """``key value (committed: value)`` for each value the run in ``run_dir`` was trained with that the committed
     config of its task and algorithm no longer asks for."""
-    from baselines.config import load_run_config
+    from baselines.config import flat_config, load_run_config
     from baselines.training import run_config_from_directory
 
-    trained = _flat_config(run_config_from_directory(run_dir).to_dict())
-    committed = _flat_config(load_run_config(result.task, result.algorithm, seed=result.seed).to_dict())
+    trained = flat_config(run_config_from_directory(run_dir).to_dict(), UNREPORTED)
+    committed = flat_config(load_run_config(result.task, result.algorithm, seed=result.seed).to_dict(), UNREPORTED)
     return [f"{key} {trained.get(key, '(unset)')} (committed: {committed.get(key, '(unset)')})"
             for key in sorted(set(trained) | set(committed)) if trained.get(key) != committed.get(key)]
 

@@ -26,7 +26,7 @@ from baselines.common.inverse_dynamics import (  # noqa: E402
     inverse_dynamics_report,
 )
 from baselines.common.machine import cpu_model, describe, read_machines, record_machine, vector_isa  # noqa: E402
-from baselines.config import CONFIG_DIR, ConfigError, load_run_config, parse_overrides  # noqa: E402
+from baselines.config import CONFIG_DIR, ConfigError, flat_config, load_run_config, parse_overrides  # noqa: E402
 from baselines.export import export_checkpoint  # noqa: E402
 from baselines.training import Trainer, load_checkpoint  # noqa: E402
 from experiments.plot_results import config_changes  # noqa: E402
@@ -53,6 +53,15 @@ def test_every_task_has_a_valid_config_for_every_algorithm():
             run = load_run_config(task, algorithm)
             assert run.train.n_steps_per_fit >= 1 and run.train.epoch_steps % run.train.n_steps_per_fit == 0
             assert run.provenance["train.n_steps"].startswith(("configs/defaults.yaml", "configs/" + algorithm))
+
+
+def test_flat_config_names_each_value_by_section_and_leaves_out_the_keys_asked():
+    config = load_run_config("UnitreeH1.walk", "sqil").to_dict()
+    flat = flat_config(config, leave_out=("sources", "agent.n_threads"))
+    assert flat["task"] == "UnitreeH1.walk" and flat["agent.batch_size"] == config["agent"]["batch_size"]
+    assert flat["env.control"] == config["env"]["control"] and flat["train.n_steps"] == config["train"]["n_steps"]
+    assert "sources" not in flat and "agent.n_threads" not in flat and "agent" not in flat
+    assert len(flat) == sum(len(config[s]) for s in ("env", "train", "agent")) - 1 + len(config) - 3 - 1
 
 
 def test_config_layers_merge_in_order(tmp_path):
