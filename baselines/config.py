@@ -179,7 +179,7 @@ def load_run_config(task: str, algorithm: str, seed: int = 0, config_dir: str | 
 
     merged: dict[str, dict[str, Any]] = {s: {} for s in SECTIONS}
     provenance: dict[str, str] = {}
-    shown_defaults, shown_task = _shown(defaults_file), _shown(task_file)
+    shown_defaults, shown_task = shown_path(defaults_file), shown_path(task_file)
     layers = [(shown_defaults, defaults), (f"{shown_defaults} [families.{family}]", family_config),
               (f"{shown_defaults} [algorithms.{algorithm}]", {"agent": algorithm_defaults.get(algorithm) or {}}),
               (f"{shown_defaults} [embodiments.{parsed.env}]", embodiment_config), (shown_task, task_config),
@@ -214,7 +214,7 @@ def load_run_config(task: str, algorithm: str, seed: int = 0, config_dir: str | 
                      sources=[str(defaults_file), str(task_file)], provenance=provenance)
 
 
-def _shown(path: Path) -> str:
+def shown_path(path: Path) -> str:
     """``path`` relative to the working directory where it lies below it (shorter in printed provenance)."""
     try:
         return Path(path).resolve().relative_to(Path.cwd().resolve()).as_posix()

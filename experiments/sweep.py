@@ -34,13 +34,14 @@ from types import ModuleType
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))  # run from a checkout without installing
 
-from baselines.config import ConfigError  # noqa: E402
+from baselines.config import ConfigError, shown_path  # noqa: E402
 from experiments.sweep_plan import (  # noqa: E402
     DirState,
     Landed,
     RunDirConflict,
     Trial,
     adopt_parked,
+    first_differences,
     inspect_run_dir,
     landed_export,
     last_score,
@@ -228,21 +229,11 @@ def _landed(trials: list[Trial], pretrained: Path) -> dict[str, Landed] | None:
 
 def _landed_row(trial: Trial, export: Landed) -> TrialStatus:
     """The table row of a trial skipped for its landed export, naming the configuration values that differ."""
-    note = f"exported in {_shown_path(export.folder)}"
+    note = f"exported in {shown_path(export.folder)}"
     if export.differences:
-        shown = "; ".join(_clipped(d) for d in export.differences[:3])
-        more = f"; and {len(export.differences) - 3} more" if len(export.differences) > 3 else ""
-        note += f", with another configuration: {shown}{more}"
+        note += f", with another configuration: {first_differences([_clipped(d) for d in export.differences], 3)}"
     return TrialStatus(trial.key, trial.run.train.n_steps, state="landed", steps=export.steps, score=export.score,
                        note=note)
-
-
-def _shown_path(path: Path) -> str:
-    """``path`` relative to the working folder where it lies below it, else as it is."""
-    try:
-        return str(path.resolve().relative_to(Path.cwd().resolve()))
-    except ValueError:
-        return str(path)
 
 
 def _clipped(text: str, width: int = 160) -> str:

@@ -126,7 +126,7 @@ def parked_source(trial: Trial, parked_root: Path) -> tuple[Path, int] | None:
     diffs = config_differences(saved.to_dict(), trial.run.to_dict())
     if diffs:
         raise RunDirConflict(f"{trial.key}: the run parked in {source} has another configuration "
-                             f"({_first_differences(diffs)}); sweep without --from-parked to start this trial afresh")
+                             f"({first_differences(diffs)}); sweep without --from-parked to start this trial afresh")
     return source, int(state["steps"])
 
 
@@ -134,7 +134,7 @@ def landed_export(trial: Trial, pretrained_root: Path) -> Landed | None:
     """The export of ``trial``'s run in ``pretrained_root/<task>/<algo>/seed<N>`` where its card's steps reached the
     trial's, whatever its configuration (the differences are returned, for the sweep to show); None where there is
     none or it is shorter. An export whose card or config cannot be read raises :class:`RunDirConflict`."""
-    folder = pretrained_root / trial.run.task / trial.run.algorithm / f"seed{trial.run.seed}"
+    folder = run_dir(pretrained_root, trial.run.task, trial.run.algorithm, trial.run.seed)  # exports share the layout
     if not (folder / "card.json").exists():
         return None
     try:
@@ -145,10 +145,10 @@ def landed_export(trial: Trial, pretrained_root: Path) -> Landed | None:
         raise RunDirConflict(f"{trial.key}: {folder / 'card.json'} cannot be read ({err!r})") from None
     if steps < trial.run.train.n_steps:
         return None
-    saved = _config_yaml(folder / "config.yaml", trial)
-    differences = config_differences(saved, trial.run.to_dict())
+    saved = _config_yaml(folder / "config.yaml", trial, advice="fix or remove that export, or sweep without "
+                                                               "--skip-landed")
     return Landed(folder, steps, None if score is None else float(score),
-                  [d.replace(" in the folder,", " in the export,") for d in differences])
+                  config_differences(saved, trial.run.to_dict(), where="the export"))
 
 
 def adopt_parked(trial: Trial, source: Path) -> None:
@@ -173,10 +173,11 @@ def clear_unstarted(trial: Trial) -> None:
             path.unlink()
 
 
-def config_differences(saved: dict[str, Any], wanted: dict[str, Any]) -> list[str]:
-    """``key: saved -> wanted`` for every compared value where two ``RunConfig.to_dict()`` differ."""
+def config_differences(saved: dict[str, Any], wanted: dict[str, Any], where: str = "the folder") -> list[str]:
+    """``key: saved in <where>, wanted in this sweep`` for every compared value where two ``RunConfig.to_dict()``
+    differ."""
     a, b = flat_config(saved, NOT_COMPARED), flat_config(wanted, NOT_COMPARED)
-    return [f"{key}: {a.get(key, '(unset)')!r} in the folder, {b.get(key, '(unset)')!r} in this sweep"
+    return [f"{key}: {a.get(key, '(unset)')!r} in {where}, {b.get(key, '(unset)')!r} in this sweep"
             for key in sorted(set(a) | set(b)) if a.get(key) != b.get(key)]
 
 
@@ -192,7 +193,7 @@ def last_score(out_dir: Path) -> float | None:
 def _refuse_other_config(trial: Trial, saved: dict[str, Any], where: Path) -> None:
     diffs = config_differences(saved, trial.run.to_dict())
     if diffs:
-        raise RunDirConflict(f"{trial.key}: {where} is a run with another configuration ({_first_differences(diffs)}). "
+        raise RunDirConflict(f"{trial.key}: {where} is a run with another configuration ({first_differences(diffs)}). "
                              "The sweep never overwrites a run: choose another --out, or move that folder away to "
                              "rerun it")
 
@@ -202,19 +203,21 @@ def _held_files(out: Path) -> list[str]:
     return [name for name in RUN_FILES if (out / name).exists()]
 
 
-def _first_differences(diffs: list[str], shown: int = 5) -> str:
+def first_differences(diffs: list[str], shown: int = 5) -> str:
+    """The first ``shown`` of ``diffs`` joined by "; ", then how many more there are."""
     return "; ".join(diffs[:shown]) + (f"; and {len(diffs) - shown} more" if len(diffs) > shown else "")
 
 
-def _config_yaml(path: Path, trial: Trial) -> dict[str, Any]:
-    """A run folder's ``config.yaml`` as ``RunConfig.to_dict()`` (normalised like a checkpoint's)."""
+def _config_yaml(path: Path, trial: Trial, advice: str = "the sweep leaves it alone: move the folder away or choose "
+                                                           "another --out") -> dict[str, Any]:
+    """A run folder's (or an export's) ``config.yaml`` as ``RunConfig.to_dict()`` (normalised like a checkpoint's);
+    :class:`RunDirConflict` with ``advice`` where it cannot be read."""
     try:
         data = yaml.safe_load(path.read_text())
         data.pop("dataset", None)
         return run_config_from_checkpoint({"run_config": data}).to_dict()
     except (OSError, yaml.YAMLError, AttributeError, KeyError, TypeError, ValueError) as err:
-        raise RunDirConflict(f"{trial.key}: {path} cannot be read ({err}); the sweep leaves it alone: move the "
-                             "folder away or choose another --out") from None
+        raise RunDirConflict(f"{trial.key}: {path} cannot be read ({err}); {advice}") from None
 
 
 def _rows(path: Path) -> list[dict[str, str]]:

@@ -218,6 +218,10 @@ def test_skip_landed_leaves_out_exported_runs_and_names_their_other_configuratio
 
     assert sweep.main([*TINY, "--out", str(out), "--skip-landed", str(tmp_path / "nowhere"), "--plan"]) == 2
     assert "nowhere: no such folder; give the folder land_run.py exports into" in capsys.readouterr().err
+    (export / "config.yaml").unlink()
+    assert sweep.main([*landed, "--steps", "200", "--plan"]) == 2
+    err = capsys.readouterr().err
+    assert f"{export / 'config.yaml'} cannot be read" in err and "or sweep without --skip-landed" in err
     (export / "card.json").write_text("{not json")
     assert sweep.main([*landed, "--steps", "200", "--plan"]) == 2
     assert f"{export / 'card.json'} cannot be read" in capsys.readouterr().err
