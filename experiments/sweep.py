@@ -28,8 +28,10 @@ import os
 import signal
 import socket
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
+from typing import TypeVar
 
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))  # run from a checkout without installing
@@ -54,6 +56,7 @@ from experiments.sweep_trial import TrialOutcome, run_trial  # noqa: E402
 
 REFRESH_S = 2.0  # how often the live table asks the trials for their step counts
 PARKED = REPO / "results" / "runs"  # where land_run.py --park commits unfinished runs
+T = TypeVar("T")
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
@@ -177,18 +180,24 @@ def main(argv: list[str] | None = None) -> int:
     return _summary(outcomes, done)
 
 
+def _per_trial(trials: list[Trial], lookup: Callable[[Trial], T]) -> tuple[dict[str, T], dict[str, str]]:
+    """``lookup`` of every trial by key, and per trial key the error of those it refused (``RunDirConflict``)."""
+    found, errors = {}, {}
+    for trial in trials:
+        try:
+            found[trial.key] = lookup(trial)
+        except RunDirConflict as err:
+            errors[trial.key] = str(err)
+    return found, errors
+
+
 def _parked_sources(trials: list[Trial], parked_root: Path) -> dict[str, tuple[Path, int] | None] | None:
     """Per trial key, the parked state (folder, steps) its empty folder would start from; None, the errors printed,
     when ``parked_root`` is missing or one of those states has another configuration (then nothing is copied)."""
     if _missing(parked_root):
         return None
-    sources, conflicts = {}, []
-    for trial in trials:
-        try:
-            sources[trial.key] = parked_source(trial, parked_root)
-        except RunDirConflict as err:
-            conflicts.append(str(err))
-    for text in conflicts:
+    sources, conflicts = _per_trial(trials, lambda trial: parked_source(trial, parked_root))
+    for text in conflicts.values():
         print(f"error: {text}", file=sys.stderr)
     if conflicts:
         print(f"error: {len(conflicts)} parked runs conflict with this sweep; nothing was copied or started",
@@ -213,18 +222,10 @@ def _landed(trials: list[Trial], pretrained: Path) -> dict[str, Landed] | None:
         print(f"error: --skip-landed {pretrained}: no such folder; give the folder land_run.py exports into "
               "(default: $LOCO_MUJOCO_PRETRAINED or pretrained/)", file=sys.stderr)
         return None
-    landed, errors = {}, []
-    for trial in trials:
-        try:
-            export = landed_export(trial, pretrained)
-        except RunDirConflict as err:
-            errors.append(str(err))
-            continue
-        if export is not None:
-            landed[trial.key] = export
-    for text in errors:
+    exports, errors = _per_trial(trials, lambda trial: landed_export(trial, pretrained))
+    for text in errors.values():
         print(f"error: {text}", file=sys.stderr)
-    return None if errors else landed
+    return None if errors else {key: export for key, export in exports.items() if export is not None}
 
 
 def _landed_row(trial: Trial, export: Landed) -> TrialStatus:
@@ -246,24 +247,18 @@ def _print_plan(trials: list[Trial], parked_root: Path | None, out: Path, landed
     holds another configuration is listed as a conflict (exit 2), as the sweep itself would refuse it."""
     if parked_root is not None and _missing(parked_root):
         return 2
-    rows, conflicts = [], []
-    for trial in trials:
-        if trial.key in landed:
-            rows.append(_landed_row(trial, landed[trial.key]))
+    rows, todo, conflicts = _plan(trials, landed)
+    parked, parked_conflicts = ({}, {}) if parked_root is None else _per_trial(
+        [trial for trial, _ in todo], lambda trial: parked_source(trial, parked_root))
+    for trial, row in todo:
+        if trial.key in parked_conflicts:
+            conflicts.append(parked_conflicts[trial.key])
+            _mark_conflict(row, trial, parked_conflicts[trial.key])
             continue
-        try:
-            row = _row(trial, inspect_run_dir(trial))
-            source = None if parked_root is None else parked_source(trial, parked_root)
-        except RunDirConflict as err:
-            conflicts.append(str(err))
-            rows.append(TrialStatus(trial.key, trial.run.train.n_steps, state="conflict",
-                                    note=str(err).removeprefix(f"{trial.key}: ")))
-            continue
-        if row.state != "done before":
-            row.state = "to resume" if source is not None or row.steps else "to start"
-            if source is not None:
-                row.steps, row.note = source[1], f"from the state parked in {source[0]}"
-        rows.append(row)
+        source = parked.get(trial.key)
+        row.state = "to resume" if source is not None or row.steps else "to start"
+        if source is not None:
+            row.steps, row.note = source[1], f"from the state parked in {source[0]}"
     print(render(rows, None))
     from baselines import is_offline
 
@@ -281,8 +276,8 @@ def _print_plan(trials: list[Trial], parked_root: Path | None, out: Path, landed
 
 def _plan(trials: list[Trial], landed: dict[str, Landed]
           ) -> tuple[list[TrialStatus], list[tuple[Trial, TrialStatus]], list[str]]:
-    """Every trial's row, the trials still to run (new or resumed: not landed) and the folders that hold another
-    run."""
+    """Every trial's row (one per trial, in order; a folder holding another run is a "conflict" row), the trials
+    still to run (new or resumed: not landed) and the conflicts' texts."""
     rows, todo, conflicts = [], [], []
     for trial in trials:
         if trial.key in landed:
@@ -292,11 +287,17 @@ def _plan(trials: list[Trial], landed: dict[str, Landed]
             row = _row(trial, inspect_run_dir(trial))
         except RunDirConflict as err:
             conflicts.append(str(err))
-            continue
-        if row.state != "done before":
-            todo.append((trial, row))
+            row = TrialStatus(trial.key, trial.run.train.n_steps)
+            _mark_conflict(row, trial, str(err))
         rows.append(row)
+        if row.state not in ("done before", "conflict"):
+            todo.append((trial, row))
     return rows, todo, conflicts
+
+
+def _mark_conflict(row: TrialStatus, trial: Trial, text: str) -> None:
+    """Show ``row`` as refused, with the conflict's text less the trial's key (the row names it)."""
+    row.state, row.note = "conflict", text.removeprefix(f"{trial.key}: ")
 
 
 def _row(trial: Trial, state: DirState) -> TrialStatus:
