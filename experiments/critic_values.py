@@ -63,11 +63,11 @@ def divergence_warning(algorithm: str, config: dict[str, Any], q_expert: float |
 
 def divergence_note(algorithm: str, config: dict[str, Any], log: Path) -> str | None:
     """"critic diverged: ..." where the log's values passed ``SLACK`` times the algorithm's bound, else None."""
-    if value_bound(algorithm, config) is None:  # no critic: the log is not read
+    bound = value_bound(algorithm, config)
+    if bound is None:  # no critic: the log is not read
         return None
     peak = value_peak(log)
-    bound = bound_passed(algorithm, config, peak[0] if peak else None)
-    if bound is None:
+    if peak is None or not peak[0] > SLACK * bound[0]:
         return None
     return (f"critic diverged: q_expert reached {peak[0]:.3g} in size (at {format_steps(peak[1])}), above "
             f"{SLACK:g} x its bound {bound[0]:g} ({bound[1]})")

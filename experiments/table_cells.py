@@ -26,7 +26,7 @@ import math
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -48,6 +48,9 @@ from loco_mujoco.evaluation.aggregate import aggregate_iqm, performance_profile
 from loco_mujoco.evaluation.intervals import iqm, mean_interval
 from loco_mujoco.evaluation.protocol import SEED
 
+if TYPE_CHECKING:
+    from baselines.config import RunConfig
+
 GRID_FILE = Path(__file__).resolve().parent.parent / "sweeps" / "table.yaml"
 GRID = build_spec(read_sweep_file(GRID_FILE), {})
 TASKS, ALGORITHMS = tuple(GRID.tasks), tuple(GRID.algos)
@@ -58,14 +61,22 @@ NAMES = {"gail": "GAIL", "vail": "VAIL", "gaifo": "GAIfO", "iq_learn": "IQ-Learn
          "bc": "BC"}
 
 
+@functools.cache
+def committed_config(task: str, algorithm: str, seed: int = 0) -> RunConfig:
+    """The committed run config of ``task`` and ``algorithm`` (``launch.py --print-config``), read once per table:
+    several columns and notes of a row compare against it. Read-only: the cached object is shared."""
+    from baselines.config import load_run_config
+
+    return load_run_config(task, algorithm, seed=seed)
+
+
 def expert_actions_unavailable(task: str, algorithm: str) -> bool:
     """Whether ``algorithm`` on ``task`` cannot get the expert actions its committed config asks for: it asks for
     derived ones, the task has no ``.perfect`` dataset (which carries actions), and inverse dynamics refuses the
     model's actuators. Real motion capture never has actions (baselines.common.expert_data)."""
-    from baselines.config import load_run_config
     from loco_mujoco.core.task_names import environment_class, parse_task_name
 
-    run = load_run_config(task, algorithm)
+    run = committed_config(task, algorithm)
     if run.train.expert_actions == "dataset" or getattr(run.agent, "from_observations", False):
         return False
     parsed = parse_task_name(task)
@@ -248,9 +259,7 @@ def _note_divergence(cell: Cell, budgets: list[Budget]) -> None:
             continue
         config = read_config(budget.log_path.parent)
         if config is None:
-            from baselines.config import load_run_config
-
-            committed = load_run_config(cell.task, cell.algorithm)
+            committed = committed_config(cell.task, cell.algorithm)
             config = {"env": committed.env, "agent": committed.agent.to_dict()}
         note = divergence_note(cell.algorithm, config, budget.log_path)
         if note:
@@ -266,11 +275,11 @@ UNREPORTED = ("seed", "sources", "init_from", "env.control", "train.n_steps", "t
 def config_changes(result: SeedResult, run_dir: Path) -> list[str]:
     """``key value (committed: value)`` for each value the run in ``run_dir`` was trained with that the committed
     config of its task and algorithm no longer asks for."""
-    from baselines.config import flat_config, load_run_config
+    from baselines.config import flat_config
     from baselines.training import run_config_from_directory
 
     trained = flat_config(run_config_from_directory(run_dir).to_dict(), UNREPORTED)
-    committed = flat_config(load_run_config(result.task, result.algorithm, seed=result.seed).to_dict(), UNREPORTED)
+    committed = flat_config(committed_config(result.task, result.algorithm, seed=result.seed).to_dict(), UNREPORTED)
     return [f"{key} {trained.get(key, '(unset)')} (committed: {committed.get(key, '(unset)')})"
             for key in sorted(set(trained) | set(committed)) if trained.get(key) != committed.get(key)]
 
@@ -289,9 +298,7 @@ def _note_config_changes(cell: Cell, results: list[SeedResult], budgets: list[Bu
 
 def committed_control(cell: Cell) -> str | None:
     """The control that the committed config of the row's task and algorithm names (None: the task's default)."""
-    from baselines.config import load_run_config
-
-    return load_run_config(cell.task, cell.algorithm).env.get("control")
+    return committed_config(cell.task, cell.algorithm).env.get("control")
 
 
 def _modes(named: list[tuple[str, str | None]]) -> str:

@@ -43,8 +43,15 @@ class Budget:
     steps: int
     hours: float | None = None
     machine: str | None = None
-    log: str | None = None  # the training log the hours come from, as the table names it
-    log_path: Path | None = None  # that log's file
+    log_path: Path | None = None  # the training log the hours come from
+
+    @property
+    def log(self) -> str | None:
+        """The training log as the table names it, below the results folder: ``runs/<run>/progress.csv`` for a run
+        directory's log, the file name for a log copied beside its evaluation."""
+        if self.log_path is None:
+            return None
+        return "/".join(self.log_path.parts[-3:]) if self.log_path.name == "progress.csv" else self.log_path.name
 
 
 @dataclass
@@ -241,13 +248,12 @@ def find_budget(result: SeedResult, runs_dir: Path, results_dir: Path) -> Budget
     if own is not None and _matches(read_config(own), result) and (own / "progress.csv").exists():
         config = read_config(own)
         return Budget(result.steps, _run_hours(own, config, result.steps),
-                      result.machine or _machine(own, config, result.steps), f"{runs_dir.name}/{own.name}/progress.csv",
-                      own / "progress.csv")
+                      result.machine or _machine(own, config, result.steps), own / "progress.csv")
     copy = results_dir / f"{result.stem}.csv" if result.stem else None
     if copy is not None and copy.exists():
         rows = read_progress(copy)
         hours = training_hours(rows, result.steps) if rows and rows[0].get("epoch") == 1 else None
-        return Budget(result.steps, hours, result.machine, copy.name, copy)
+        return Budget(result.steps, hours, result.machine, copy)
     found = []
     for run_dir in sorted(p for p in runs_dir.glob("*") if p.is_dir()) if runs_dir.is_dir() else []:
         config = read_config(run_dir)
@@ -255,8 +261,8 @@ def find_budget(result: SeedResult, runs_dir: Path, results_dir: Path) -> Budget
             hours = _run_hours(run_dir, config, result.steps)
             if hours is not None:
                 found.append(Budget(result.steps, hours, result.machine or _machine(run_dir, config, result.steps),
-                                    f"{runs_dir.name}/{run_dir.name}/progress.csv", run_dir / "progress.csv"))
-    return found[0] if len(found) == 1 else Budget(result.steps, None, result.machine, None)
+                                    run_dir / "progress.csv"))
+    return found[0] if len(found) == 1 else Budget(result.steps, None, result.machine)
 
 
 @dataclass(frozen=True)
@@ -289,7 +295,7 @@ def training_runs(runs_dir: Path) -> list[TrainingRun]:
             continue
         steps = int(rows[-1]["step"])
         budget = Budget(steps, _run_hours(run_dir, config, steps), _machine(run_dir, config, steps),
-                        f"{runs_dir.name}/{run_dir.name}/progress.csv", run_dir / "progress.csv")
+                        run_dir / "progress.csv")
         planned = (config.get("train") or {}).get("n_steps")
         out.append(TrainingRun(config["task"], config["algorithm"], int(config["seed"]), budget, run_dir.name,
                                (config.get("env") or {}).get("control"), int(planned) if planned else None))
