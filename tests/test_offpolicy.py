@@ -446,3 +446,46 @@ def test_expert_action_labels_are_scored_against_the_true_actions(tmp_path):
     assert res["mj_inverse"]["r2"] > 0.5 and res["mj_inverse"]["rmse"] < 0.3
     assert {"learned_on_random", "learned_on_demonstrator+N(0,0.1)"} <= set(res)
     assert main(["--transitions", "300", "--updates", "20", "--json", str(out)]) == 2  # never overwritten
+
+
+def test_critic_probe_reads_values_around_the_expert_actions(env):
+    """The probe's noise of 0 reproduces the value at the expert's action, its figures are finite and the replay
+    buffer's states are probed where it holds transitions."""
+    from experiments.critic_probe import probe
+
+    agent = make_agent("sqil", env, config=SMALL, seed=0)
+    learn(agent, env, 300)
+    out = probe(agent, n=64, noise=(0.0, 0.1), seed=3)
+    expert = out["expert_states"]
+    assert expert["q_expert_action_plus_noise"]["0"] == pytest.approx(expert["q_expert_action"], rel=1e-6)
+    assert set(expert["q_between"]) == {"0.25", "0.5", "0.75"}
+    values = [expert["q_expert_action"], expert["q_policy_mean_action"], *expert["q_between"].values(),
+              *out["agent_states"].values()]
+    assert np.all(np.isfinite(values))
+    assert 0 < expert["rms_expert_action"] <= 1 and expert["policy_std"] > 0
+    assert probe(agent, n=64, noise=(0.1,), seed=3) == probe(agent, n=64, noise=(0.1,), seed=3)  # seeded
+    with pytest.raises(ValueError, match="n must be at least 1"):
+        probe(agent, n=0)
+
+
+def test_critic_probe_command_reads_a_run_directory(tmp_path, capsys):
+    from baselines.training import Trainer
+    from experiments.critic_probe import main
+
+    overrides = {"train": {"n_steps": 300, "epoch_steps": 300, "n_eval_episodes": 1}, "env": {"horizon": 50},
+                 "agent": {**SMALL, "initial_samples": 20}}
+    threads = torch.get_num_threads()
+    try:
+        Trainer(load_run_config("UnitreeH1.walk.perfect", "sqil", overrides=overrides), tmp_path / "run",
+                progress=False).train()
+        out = tmp_path / "probe.json"
+        assert main([str(tmp_path / "run"), "--samples", "32", "--json", str(out)]) == 0
+        result = json.loads(out.read_text())
+        assert (result["algorithm"], result["steps"], result["bound"]) == ("sqil", 300, "100 (rewards in [0, 1])")
+        assert "agent_states" in result  # the replay buffer beside the checkpoint was read
+        assert main([str(tmp_path / "run"), "--json", str(out)]) == 2  # never overwritten
+        assert "never overwritten" in capsys.readouterr().err
+        assert main([str(tmp_path / "nowhere")]) == 2
+        assert "no checkpoint at" in capsys.readouterr().err
+    finally:
+        torch.set_num_threads(threads)

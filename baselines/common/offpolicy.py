@@ -353,6 +353,15 @@ class OffPolicyImitation(Agent):
             self._inverse_model_stats = {}
         return states, action, torch.from_numpy(absorbing)
 
+    def expert_rows(self, idx: np.ndarray) -> tuple[torch.Tensor, torch.Tensor]:
+        """Standardized expert states at ``idx`` and the actions the critics are trained with there (the dataset's,
+        clipped to [-1, 1], or the inverse model's labels of ``(s, s')``), for probing the critics."""
+        x = torch.from_numpy(self.obs_standardizer.normalize(self._expert_states_np[idx]))
+        if self.inverse_model is None:
+            return x, torch.from_numpy(self._expert_actions_np[idx])
+        x_next = torch.from_numpy(self.obs_standardizer.normalize(self._expert_next_states_np[idx]))
+        return x, self.inverse_model.predict(x, x_next)
+
     # ---- statistics -------------------------------------------------------------------------------------
     def _accumulate(self, stats: dict[str, torch.Tensor]) -> None:
         values = torch.stack([torch.as_tensor(v, dtype=torch.float32) for v in stats.values()])
