@@ -448,13 +448,18 @@ def test_expert_action_labels_are_scored_against_the_true_actions(tmp_path):
     assert main(["--transitions", "300", "--updates", "20", "--json", str(out)]) == 2  # never overwritten
 
 
-def test_critic_probe_reads_values_around_the_expert_actions(env):
-    """The probe's noise of 0 reproduces the value at the expert's action, its figures are finite and the replay
-    buffer's states are probed where it holds transitions."""
+@pytest.mark.parametrize("algorithm, from_observations", [("sqil", False), ("lsiq", True)])
+def test_critic_probe_reads_values_around_the_expert_actions(env, algorithm, from_observations):
+    """The probe's noise of 0 reproduces the value at the expert's action (the dataset's, or the inverse model's
+    label), its figures are finite and the replay buffer's states are probed where it holds transitions."""
     from experiments.critic_probe import probe
 
-    agent = make_agent("sqil", env, config=SMALL, seed=0)
+    agent = make_agent(algorithm, env, config={**SMALL, "from_observations": from_observations}, seed=0)
     learn(agent, env, 300)
+    x, action = agent.expert_rows(np.arange(5))
+    assert x.shape == (5, agent.buffer.obs_dim) and action.shape == (5, agent.policy.act_dim)
+    if not from_observations:
+        assert torch.equal(action, torch.from_numpy(np.clip(agent.expert.actions[:5], -1, 1).astype(np.float32)))
     out = probe(agent, n=64, noise=(0.0, 0.1), seed=3)
     expert = out["expert_states"]
     assert expert["q_expert_action_plus_noise"]["0"] == pytest.approx(expert["q_expert_action"], rel=1e-6)
