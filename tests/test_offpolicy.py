@@ -309,7 +309,8 @@ def test_offpolicy_family_config():
     assert run.agent.alpha == 0.1 and run.agent.n_critics == 1
     iq = load_run_config("UnitreeH1.walk", "iq_learn").agent
     assert iq.n_critics == 2 and iq.alpha == 0.1 and iq.loss_mode == "v0"
-    assert load_run_config("UnitreeH1.walk", "sqil").agent.n_critics == 2
+    sqil = load_run_config("UnitreeH1.walk", "sqil").agent
+    assert sqil.n_critics == 2 and sqil.alpha == 0.1 and sqil.clip_targets and sqil.critic_layer_norm
 
 
 def test_one_critic_has_one_set_of_weights(env):
