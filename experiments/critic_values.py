@@ -1,11 +1,17 @@
-"""Whether an off-policy run's critic diverged, read from its training log (``q_expert``, the critics' mean value of
-expert transitions, logged every epoch).
+"""Whether an off-policy run's critic diverged or saturated, read from its training log (``q_expert`` and
+``q_agent``, the critics' mean values of expert and of replay transitions, logged every epoch).
 
 A row whose critic left the range its rewards allow measures a broken value function more than the algorithm, so the
 results table says so. Bounds on ``|Q|``: SQIL's rewards of 0 and 1 allow ``1 / (1 - gamma)``; LS-IQ clips its
 targets to ``1 / (c (1 - gamma))``; IQ-Learn's implicit rewards have no fixed bound, so ten times SQIL's stands in
 (a unit reward per step could not produce it). A run is flagged when its logged value passes ``SLACK`` times the
 bound (the entropy term of soft values adds up to ``alpha |log pi| / (1 - gamma)``, ~5-10 at the table's settings).
+
+A critic *saturates* when it values the agent's own states at the floor its targets allow (0 for SQIL, ``-bound``
+for LS-IQ; IQ-Learn has none): it then separates expert from agent states as a saturated discriminator does and
+gives the actor nothing to climb. The table's runs that ended so learned little or nothing (results/README.md,
+"Critic probes"); a run is flagged when its last logged ``q_agent`` lies within ``FLOOR_SHARE`` of the range above
+the floor.
 """
 
 from __future__ import annotations
@@ -17,6 +23,7 @@ from typing import Any
 from experiments.table_sources import format_steps, read_progress
 
 SLACK = 1.25
+FLOOR_SHARE = 0.05  # of the range [floor, bound]: LS-IQ below -180 of [-200, 200], SQIL below 5 of [0, 100]
 
 
 def value_bound(algorithm: str, config: dict[str, Any]) -> tuple[float, str] | None:
@@ -71,3 +78,58 @@ def divergence_note(algorithm: str, config: dict[str, Any], log: Path) -> str | 
         return None
     return (f"critic diverged: q_expert reached {peak[0]:.3g} in size (at {format_steps(peak[1])}), above "
             f"{SLACK:g} x its bound {bound[0]:g} ({bound[1]})")
+
+
+def value_floor(algorithm: str, config: dict[str, Any]) -> float | None:
+    """The lowest value the critic's targets allow: 0 for SQIL (rewards 0 and 1), ``-bound`` for LS-IQ (its clipped
+    targets); None for IQ-Learn (no fixed floor) and the algorithms without a critic."""
+    bound = value_bound(algorithm, config)
+    if algorithm == "sqil":
+        return 0.0
+    if algorithm == "lsiq" and bound is not None:
+        return -bound[0]
+    return None
+
+
+def saturation_threshold(algorithm: str, config: dict[str, Any]) -> tuple[float, float] | None:
+    """``(floor, threshold)``: ``q_agent`` below the threshold counts as at the floor; None where there is no floor."""
+    floor, bound = value_floor(algorithm, config), value_bound(algorithm, config)
+    if floor is None or bound is None:
+        return None
+    return floor, floor + FLOOR_SHARE * (bound[0] - floor)
+
+
+def saturated_since(algorithm: str, config: dict[str, Any], log: Path) -> tuple[int, int, float] | None:
+    """``(first step, last step, last q_agent)`` of the unbroken stretch of epochs that ends the log with ``q_agent``
+    at the floor; None where the log's last ``q_agent`` is above it (or there is no floor or no ``q_agent``)."""
+    threshold = saturation_threshold(algorithm, config)
+    if threshold is None or not log.exists():
+        return None
+    rows = [r for r in read_progress(log) if math.isfinite(r.get("q_agent", math.nan))]
+    if not rows or not rows[-1]["q_agent"] < threshold[1]:
+        return None
+    first = len(rows) - 1
+    while first > 0 and rows[first - 1]["q_agent"] < threshold[1]:
+        first -= 1
+    return int(rows[first]["step"]), int(rows[-1]["step"]), rows[-1]["q_agent"]
+
+
+def saturation_note(algorithm: str, config: dict[str, Any], log: Path) -> str | None:
+    """"critic saturated: ..." where the log ends with ``q_agent`` at the floor, else None."""
+    stretch = saturated_since(algorithm, config, log)
+    if stretch is None:
+        return None
+    floor, threshold = saturation_threshold(algorithm, config)
+    return (f"critic saturated from {format_steps(stretch[0])} to {format_steps(stretch[1])}: q_agent "
+            f"{stretch[2]:.3g} at the end, within {FLOOR_SHARE:.0%} of its floor {floor:g} (below {threshold:g}), "
+            f"every agent state valued as never reaching the expert's")
+
+
+def saturation_warning(algorithm: str, config: dict[str, Any], q_agent: float | None) -> str | None:
+    """A warning line for a training run whose latest ``q_agent`` lies at the floor, else None."""
+    threshold = saturation_threshold(algorithm, config)
+    if threshold is None or q_agent is None or not math.isfinite(q_agent) or not q_agent < threshold[1]:
+        return None
+    return (f"warning: q_agent is {q_agent:.3g}, within {FLOOR_SHARE:.0%} of its floor {threshold[0]:g} (below "
+            f"{threshold[1]:g}): the critic values every agent state as never reaching the expert's; the table's "
+            f"runs whose critics ended so learned little or nothing (results/README.md)")

@@ -28,7 +28,7 @@ from baselines.config import (  # noqa: E402
     parse_overrides,
 )
 from baselines.training import Trainer  # noqa: E402
-from experiments.critic_values import divergence_warning  # noqa: E402
+from experiments.critic_values import divergence_warning, saturation_warning  # noqa: E402
 from experiments.reported_curves import comparison_line, reported_curve  # noqa: E402
 
 
@@ -103,8 +103,9 @@ def _compare_with_reported(run: Any) -> Callable[[int, dict[str, float]], str]:
 
     def line(steps: int, figures: dict[str, float]) -> str:
         text = comparison_line(run.task, run.algorithm, steps, figures, curve)
-        warning = divergence_warning(run.algorithm, config, figures.get("q_expert"))
-        return f"{text}\n{warning}" if warning else text
+        warnings = [divergence_warning(run.algorithm, config, figures.get("q_expert")),
+                    saturation_warning(run.algorithm, config, figures.get("q_agent"))]
+        return "\n".join([text, *[w for w in warnings if w]])
 
     return line
 

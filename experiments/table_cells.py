@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from experiments.critic_values import divergence_note
+from experiments.critic_values import divergence_note, saturation_note
 from experiments.sweep_spec import build_spec, read_sweep_file
 from experiments.table_sources import (
     Budget,
@@ -246,14 +246,15 @@ def _empty(cell: Cell, runs: list[TrainingRun]) -> None:
             where = (f"at {format_steps(r.budget.steps)} of {format_steps(r.planned_steps)}" if r.unfinished
                      else f"at {format_steps(r.budget.steps)}")
             cell.notes.append(f"seed {r.seed}{data}: {r.directory} {where}, no evaluation file")
-        _note_divergence(cell, [r.budget for r in mine])
+        _note_critic(cell, [r.budget for r in mine])
     elif expert_actions_unavailable(cell.task, cell.algorithm):
         cell.status = NO_ACTIONS
 
 
-def _note_divergence(cell: Cell, budgets: list[Budget]) -> None:
-    """A "critic diverged" note per seed whose training log passed its critic's bound
-    (:mod:`experiments.critic_values`); the config beside the log (a run directory's), else the committed one."""
+def _note_critic(cell: Cell, budgets: list[Budget]) -> None:
+    """A "critic diverged" note per seed whose training log passed its critic's bound and a "critic saturated" note
+    per seed whose log ends with the agent's states at the critic's floor (:mod:`experiments.critic_values`); the
+    config beside the log (a run directory's), else the committed one."""
     for budget in budgets:
         if budget.log_path is None:
             continue
@@ -261,9 +262,10 @@ def _note_divergence(cell: Cell, budgets: list[Budget]) -> None:
         if config is None:
             committed = committed_config(cell.task, cell.algorithm)
             config = {"env": committed.env, "agent": committed.agent.to_dict()}
-        note = divergence_note(cell.algorithm, config, budget.log_path)
-        if note:
-            cell.notes.append(f"{note}; {budget.log}" if len(budgets) > 1 else note)
+        for note in (divergence_note(cell.algorithm, config, budget.log_path),
+                     saturation_note(cell.algorithm, config, budget.log_path)):
+            if note:
+                cell.notes.append(f"{note}; {budget.log}" if len(budgets) > 1 else note)
 
 
 # Values a row's runs may differ in from the committed config without the note below: the budget (its own column),
@@ -329,7 +331,7 @@ def _fill(cell: Cell, results: list[SeedResult], results_dir: Path, runs_dir: Pa
         cell.notes.append(f"trained in {cell.control} control; the committed config now asks for {committed}")
     cell.budgets = [find_budget(r, runs_dir, results_dir) for r in results]
     _note_config_changes(cell, results, cell.budgets)
-    _note_divergence(cell, cell.budgets)
+    _note_critic(cell, cell.budgets)
     if results[0].data == "perfect":
         cell.notes.insert(0, "(perfect data)")
     refs = {_key(r.references) for r in results if r.references is not None}

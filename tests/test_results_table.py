@@ -217,6 +217,47 @@ def test_a_row_whose_critic_passed_its_bound_says_critic_diverged(dirs):
         assert not any("critic diverged" in n for n in rows[key].notes), key
 
 
+def test_a_row_whose_critic_ends_at_its_floor_says_critic_saturated(dirs):
+    results, runs = dirs
+
+    def run(name, task, algo, q_agent, agent=None):
+        folder = runs / name
+        folder.mkdir()
+        (folder / "config.yaml").write_text(yaml.safe_dump({"task": task, "algorithm": algo, "seed": 0,
+                                                            "env": {"gamma": 0.99}, "agent": agent or {},
+                                                            "train": {"n_steps": 500_000}}))
+        lines = [f"{20_000 * (i + 1)},{i + 1},30,50.0,{q}" for i, q in enumerate(q_agent)]
+        (folder / "progress.csv").write_text("step,epoch,train_steps_per_s,q_expert,q_agent\n" + "\n".join(lines)
+                                             + "\n")
+
+    # LS-IQ, c = 0.5: floor -200, threshold -200 + 0.05 x 400 = -180; the stretch that ends the log counts
+    run("Talos.walk_lsiq", "Talos.walk", "lsiq", [-10.0, -185.0, -150.0, -181.0, -194.0], agent={"reg_mult": 0.5})
+    run("Atlas.walk_lsiq", "Atlas.walk", "lsiq", [-190.0, -185.0, -179.0], agent={"reg_mult": 0.5})  # climbed out
+    run("Talos.walk_sqil", "Talos.walk", "sqil", [9.0, 0.3])  # floor 0, threshold 5
+    run("Atlas.walk_sqil", "Atlas.walk", "sqil", [0.5, 5.5])
+    run("Talos.walk_iq_learn", "Talos.walk", "iq_learn", [-500.0])  # no floor
+    rows, _ = table(results, runs)
+    assert rows["Talos.walk", "lsiq"].notes[-1] == (
+        "critic saturated from 80k to 100k: q_agent -194 at the end, within 5% of its floor -200 (below -180), every "
+        "agent state valued as never reaching the expert's")
+    assert rows["Talos.walk", "sqil"].notes[-1].startswith("critic saturated from 40k to 40k: q_agent 0.3 at the "
+                                                           "end, within 5% of its floor 0 (below 5), ")
+    for key in (("Atlas.walk", "lsiq"), ("Atlas.walk", "sqil"), ("Talos.walk", "iq_learn")):
+        assert not any("critic saturated" in n for n in rows[key].notes), key
+
+
+def test_saturation_warning_while_training():
+    from experiments.critic_values import saturation_warning
+
+    config = {"env": {"gamma": 0.99}, "agent": {"reg_mult": 0.5}}
+    warning = saturation_warning("lsiq", config, -190.0)
+    assert warning.startswith("warning: q_agent is -190, within 5% of its floor -200 (below -180)")
+    assert saturation_warning("lsiq", config, -170.0) is None
+    assert saturation_warning("sqil", config, 1.0) and saturation_warning("sqil", config, 13.5) is None
+    assert saturation_warning("iq_learn", config, -1e6) is None and saturation_warning("gail", config, -1e6) is None
+    assert saturation_warning("lsiq", config, None) is None and saturation_warning("lsiq", config, float("nan")) is None
+
+
 def test_each_row_names_the_control_its_agents_act_in(dirs):
     results, runs = dirs
     write_eval(results, "Atlas.walk", "vail", 0, np.full(10, 68.0), refs={"env_settings": {"control": "'pd'"}})
