@@ -188,17 +188,22 @@ def test_perfect_data_superseded_seeds_and_runs_without_evaluation(dirs):
     assert "In all: 3 runs, 0.2 core-hours of learning." in compute_lines(list(rows.values()))
 
 
+def _offpolicy_run(runs, name, task, algo, column, values, agent=None):
+    """A run directory of an off-policy run whose log has ``column`` at ``values`` (one per 20k epoch)."""
+    folder = runs / name
+    folder.mkdir()
+    (folder / "config.yaml").write_text(yaml.safe_dump({"task": task, "algorithm": algo, "seed": 0,
+                                                        "env": {"gamma": 0.99}, "agent": agent or {},
+                                                        "train": {"n_steps": 500_000}}))
+    lines = [f"{20_000 * (i + 1)},{i + 1},30,{v}" for i, v in enumerate(values)]
+    (folder / "progress.csv").write_text(f"step,epoch,train_steps_per_s,{column}\n" + "\n".join(lines) + "\n")
+
+
 def test_a_row_whose_critic_passed_its_bound_says_critic_diverged(dirs):
     results, runs = dirs
 
     def run(name, task, algo, q_expert, agent=None):
-        folder = runs / name
-        folder.mkdir()
-        (folder / "config.yaml").write_text(yaml.safe_dump({"task": task, "algorithm": algo, "seed": 0,
-                                                            "env": {"gamma": 0.99}, "agent": agent or {},
-                                                            "train": {"n_steps": 500_000}}))
-        lines = [f"{20_000 * (i + 1)},{i + 1},30,{q}" for i, q in enumerate(q_expert)]
-        (folder / "progress.csv").write_text("step,epoch,train_steps_per_s,q_expert\n" + "\n".join(lines) + "\n")
+        _offpolicy_run(runs, name, task, algo, "q_expert", q_expert, agent)
 
     run("Talos.walk_sqil", "Talos.walk", "sqil", [30.0, 326.0, 718_000.0])  # bound 100: diverged
     run("Atlas.walk_sqil", "Atlas.walk", "sqil", [30.0, 95.0, 120.0])  # within 1.25 x 100
@@ -221,14 +226,7 @@ def test_a_row_whose_critic_ends_at_its_floor_says_critic_saturated(dirs):
     results, runs = dirs
 
     def run(name, task, algo, q_agent, agent=None):
-        folder = runs / name
-        folder.mkdir()
-        (folder / "config.yaml").write_text(yaml.safe_dump({"task": task, "algorithm": algo, "seed": 0,
-                                                            "env": {"gamma": 0.99}, "agent": agent or {},
-                                                            "train": {"n_steps": 500_000}}))
-        lines = [f"{20_000 * (i + 1)},{i + 1},30,50.0,{q}" for i, q in enumerate(q_agent)]
-        (folder / "progress.csv").write_text("step,epoch,train_steps_per_s,q_expert,q_agent\n" + "\n".join(lines)
-                                             + "\n")
+        _offpolicy_run(runs, name, task, algo, "q_agent", q_agent, agent)
 
     # LS-IQ, c = 0.5: floor -200, threshold -200 + 0.05 x 400 = -180; the stretch that ends the log counts
     run("Talos.walk_lsiq", "Talos.walk", "lsiq", [-10.0, -185.0, -150.0, -181.0, -194.0], agent={"reg_mult": 0.5})
