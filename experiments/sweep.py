@@ -13,7 +13,9 @@ continues the table's unfinished runs; with ``--skip-landed`` a trial whose run 
 (``pretrained/<task>/<algo>/seed<N>``, at least the trial's steps) is skipped and shown as landed, with the
 configuration values its export differs in. So ``sweep.py --config sweeps/table.yaml --from-parked --skip-landed``
 trains what the results table still lacks. A live table shows each trial (pending, running with its step count,
-finished, failed with the error's last line); the exit status is 1 if any trial failed.
+finished, failed with the error's last line); the exit status is 1 if any trial failed. Trials start as CPUs free
+up: those resuming a checkpoint first, then each (task, algorithm)'s first seed before any one's second
+(:func:`start_order`).
 
 Ray starts locally with ``--num-cpus`` CPUs (default: all) and nothing to set up; ``--address HOST:PORT`` joins a
 cluster started with ``ray start`` (see the README's "Sweeps": the out folder must be on storage every machine
@@ -168,7 +170,7 @@ def main(argv: list[str] | None = None) -> int:
                       "their token by default: RAY_AUTH_MODE=token here, with the head's ~/.ray/auth_token copied "
                       "to this machine (or RAY_AUTH_TOKEN set)", file=sys.stderr)
                 return 2
-        outcomes = _run(ray, spec.cpus_per_trial, todo, rows)
+        outcomes = _run(ray, spec.cpus_per_trial, start_order(todo, spec.seeds_of), rows)
     except KeyboardInterrupt:
         print("\ninterrupted: every trial keeps its last checkpoint; run the same command again to resume",
               file=sys.stderr)
@@ -341,6 +343,18 @@ def _check_reachable(address: str) -> None:
         socket.create_connection((host, int(port)), timeout=10).close()
     except OSError as err:
         raise ConnectionError(f"nothing answers at {address} ({err.strerror or err})") from None
+
+
+def start_order(todo: list[tuple[Trial, TrialStatus]], seeds_of: Callable[[str], list[int]]
+                ) -> list[tuple[Trial, TrialStatus]]:
+    """``todo`` in the order the trials are handed to Ray: those resuming a checkpoint (their steps are spent) before
+    the new ones, and within each group every (task, algorithm)'s first seed before any one's second, and so on, in
+    grid order. So a grid larger than the CPUs gives every row of a table a result before it adds seeds to any."""
+    def key(item: tuple[Trial, TrialStatus]) -> tuple[bool, int]:
+        trial, row = item
+        return row.steps == 0, seeds_of(trial.run.task).index(trial.run.seed)
+
+    return sorted(todo, key=key)  # stable: grid order within equal keys
 
 
 def _run(ray: ModuleType, cpus_per_trial: float, todo: list[tuple[Trial, TrialStatus]],

@@ -260,6 +260,21 @@ def test_a_sweep_file_plans_seeds_per_task_and_leaves_pairs_out(tmp_path):
             build_spec(read_sweep_file(path), {})
 
 
+def test_trials_start_resumed_first_then_each_rows_first_seed(tmp_path):
+    path = tmp_path / "grid.yaml"
+    path.write_text("tasks: [UnitreeH1.walk, Talos.walk]\nalgos: [vail, bc]\nseeds: [0]\n"
+                    "seeds_by_task: {UnitreeH1.walk: [0, 1, 2]}\nexclude: [Talos.walk/bc]\n")
+    spec = build_spec(read_sweep_file(path), {})
+    trials = make_trials(spec)
+    resumed = {"UnitreeH1.walk/bc/seed2": 40_000, "Talos.walk/vail/seed0": 100_000}
+    todo = [(t, TrialStatus(t.key, t.run.train.n_steps, steps=resumed.get(t.key, 0))) for t in trials]
+    order = [t.key for t, _ in sweep.start_order(todo, spec.seeds_of)]
+    assert order == ["Talos.walk/vail/seed0", "UnitreeH1.walk/bc/seed2",  # resumed: first seeds first
+                     "UnitreeH1.walk/vail/seed0", "UnitreeH1.walk/bc/seed0",  # every row's first seed
+                     "UnitreeH1.walk/vail/seed1", "UnitreeH1.walk/bc/seed1", "UnitreeH1.walk/vail/seed2"]
+    assert sorted(order) == sorted(t.key for t in trials)  # nothing lost or repeated
+
+
 def test_the_table_grid_file_is_a_valid_sweep():
     spec = build_spec(read_sweep_file(Path(sweep.REPO) / "sweeps" / "table.yaml"), {})
     runs = spec.runs()
