@@ -19,7 +19,7 @@ from baselines.common.squashed_policy import TanhGaussianPolicy
 from baselines.common.standardizer import RunningStandardizer
 from baselines.common.twin_critic import TwinCritic
 from baselines.config import load_run_config
-from baselines.lsiq.lsiq import lsiq_value_target, q_bound
+from baselines.lsiq.lsiq import lsiq_loss, lsiq_value_target, q_bound
 from baselines.sqil.sqil import sqil_loss, sqil_rewards
 
 OFFPOLICY = ["iq_learn", "lsiq", "sqil"]
@@ -93,6 +93,41 @@ def test_lsiq_targets_and_values_stay_within_the_bound(env):
         q_expert.append(q[:, SMALL["batch_size"]:])
     assert 0.9 * bound < torch.cat(q_expert, 1).mean() < 1.1 * bound
     assert torch.cat(q_all, 1).abs().max() < 1.5 * bound
+
+
+def test_lsiq_loss_forms_written_out():
+    gamma, c, b = 0.99, 0.5, 3
+    q_max = q_bound(c, gamma)
+    gen = torch.Generator().manual_seed(0)
+    q, v = 50 * torch.randn((2, 2 * b), generator=gen), 50 * torch.randn((2, 2 * b), generator=gen)
+    next_v = torch.tensor([-1e6, -50.0, 0.0, 50.0, 1e6, 20.0])
+    absorbing = torch.tensor([0.0, 0.0, 0.0, 0.0, 0.0, 1.0])
+    batch = CriticBatch(q=q, v=v, next_v=next_v, absorbing=absorbing, n_agent=b, gamma=gamma)
+    y = gamma * torch.tensor([-q_max, -50.0, 0.0, 50.0, q_max, -q_max])  # clipped; an absorbing s' is worth -Q_max
+    expert = sum(((q[j, b:] - q_max) ** 2).mean() for j in range(2))
+    least_squares = expert + sum(((v[j] - (y - 1 / c)) ** 2).mean() for j in range(2))
+    chi2 = expert + sum((v[j] - y).mean() + c * ((q[j] - y) ** 2).mean() for j in range(2))
+    got, stats = lsiq_loss(batch, c)
+    assert got.item() == pytest.approx(least_squares.item(), rel=1e-6) and "chi2_term" not in stats
+    got, stats = lsiq_loss(batch, c, "chi2")
+    assert got.item() == pytest.approx(chi2.item(), rel=1e-6)
+    assert stats["reward_agent"].item() == pytest.approx((q[:, :b] - y[:b]).mean().item(), rel=1e-6)
+    with pytest.raises(ValueError, match="loss_form must be one of"):
+        lsiq_loss(batch, c, "iq_like")
+
+
+def test_lsiq_chi2_form_reads_the_agents_values(env):
+    with pytest.raises(ValueError, match="loss_form must be one of .*'sqil_like'"):
+        make_agent("lsiq", env, config={**SMALL, "loss_form": "sqil_like"}, seed=0)
+    stats = {}
+    for form in ("least_squares", "chi2"):
+        agent = make_agent("lsiq", env, config={**SMALL, "loss_form": form}, seed=0)
+        assert agent.uses_agent_values == (form == "chi2")
+        learn(agent, env, 150)
+        stats[form] = agent.last_stats
+        assert np.isfinite(stats[form]["critic_loss"]) and np.isfinite(stats[form]["q_agent"])
+    assert "chi2_term" in stats["chi2"] and "chi2_term" not in stats["least_squares"]
+    assert stats["chi2"]["critic_loss"] != stats["least_squares"]["critic_loss"]
 
 
 def test_sqil_rewards_are_one_for_expert_and_zero_for_agent_samples(env):
@@ -254,7 +289,8 @@ def autograd_update(agent):
                                                    ("iq_learn", {"loss_mode": "v0", "activation": "tanh"}),
                                                    ("iq_learn", {"n_critics": 1}), ("lsiq", {"n_critics": 1}),
                                                    ("sqil", {"critic_layer_norm": True, "clip_targets": True}),
-                                                   ("iq_learn", {"critic_layer_norm": True})])
+                                                   ("iq_learn", {"critic_layer_norm": True}),
+                                                   ("lsiq", {"loss_form": "chi2"})])
 def test_update_matches_the_autograd_update(env, algorithm, extra):
     agent = make_agent(algorithm, env, config={**SMALL, **extra}, seed=0)
     learn(agent, env, 150)  # the optimisers' states exist
