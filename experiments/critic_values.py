@@ -20,6 +20,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+from baselines.lsiq.lsiq import value_floor as lsiq_value_floor
 from experiments.table_sources import format_steps, read_progress
 
 SLACK = 1.25
@@ -81,13 +82,15 @@ def divergence_note(algorithm: str, config: dict[str, Any], log: Path) -> str | 
 
 
 def value_floor(algorithm: str, config: dict[str, Any]) -> float | None:
-    """The lowest value the critic's targets allow: 0 for SQIL (rewards 0 and 1), ``-bound`` for LS-IQ (its clipped
-    targets); None for IQ-Learn (no fixed floor) and the algorithms without a critic."""
+    """The lowest value the critic's targets allow: 0 for SQIL (rewards 0 and 1), LS-IQ's ``V_min`` (``-bound``, or
+    ``-bound / 2`` for its chi2 form); None for IQ-Learn (no fixed floor) and the algorithms without a critic."""
     bound = value_bound(algorithm, config)
     if algorithm == "sqil":
         return 0.0
     if algorithm == "lsiq" and bound is not None:
-        return -bound[0]
+        agent = config.get("agent") or {}
+        gamma = float((config.get("env") or {}).get("gamma", 0.99))
+        return lsiq_value_floor(float(agent.get("reg_mult", 0.5)), gamma, agent.get("loss_form", "least_squares"))
     return None
 
 

@@ -19,7 +19,7 @@ from baselines.common.squashed_policy import TanhGaussianPolicy
 from baselines.common.standardizer import RunningStandardizer
 from baselines.common.twin_critic import TwinCritic
 from baselines.config import load_run_config
-from baselines.lsiq.lsiq import lsiq_loss, lsiq_value_target, q_bound
+from baselines.lsiq.lsiq import lsiq_loss, lsiq_value_target, q_bound, value_floor
 from baselines.sqil.sqil import sqil_loss, sqil_rewards
 
 OFFPOLICY = ["iq_learn", "lsiq", "sqil"]
@@ -103,15 +103,18 @@ def test_lsiq_loss_forms_written_out():
     next_v = torch.tensor([-1e6, -50.0, 0.0, 50.0, 1e6, 20.0])
     absorbing = torch.tensor([0.0, 0.0, 0.0, 0.0, 0.0, 1.0])
     batch = CriticBatch(q=q, v=v, next_v=next_v, absorbing=absorbing, n_agent=b, gamma=gamma)
-    y = gamma * torch.tensor([-q_max, -50.0, 0.0, 50.0, q_max, -q_max])  # clipped; an absorbing s' is worth -Q_max
+    # clipped; an absorbing s' is worth the form's floor: -Q_max (least squares), -Q_max / 2 (chi2)
+    y = gamma * torch.tensor([-q_max, -50.0, 0.0, 50.0, q_max, -q_max])
+    y_chi2 = torch.cat([y[:-1], torch.tensor([-gamma * q_max / 2])])
+    assert value_floor(c, gamma) == pytest.approx(-200.0) and value_floor(c, gamma, "chi2") == pytest.approx(-100.0)
     expert = sum(((q[j, b:] - q_max) ** 2).mean() for j in range(2))
     least_squares = expert + sum(((v[j] - (y - 1 / c)) ** 2).mean() for j in range(2))
-    chi2 = expert + sum((v[j] - y).mean() + c * ((q[j] - y) ** 2).mean() for j in range(2))
+    chi2 = expert + sum((v[j] - y_chi2).mean() + c * ((q[j] - y_chi2) ** 2).mean() for j in range(2))
     got, stats = lsiq_loss(batch, c)
     assert got.item() == pytest.approx(least_squares.item(), rel=1e-6) and "chi2_term" not in stats
     got, stats = lsiq_loss(batch, c, "chi2")
     assert got.item() == pytest.approx(chi2.item(), rel=1e-6)
-    assert stats["reward_agent"].item() == pytest.approx((q[:, :b] - y[:b]).mean().item(), rel=1e-6)
+    assert stats["reward_agent"].item() == pytest.approx((q[:, :b] - y_chi2[:b]).mean().item(), rel=1e-6)
     with pytest.raises(ValueError, match="loss_form must be one of"):
         lsiq_loss(batch, c, "iq_like")
 

@@ -254,6 +254,9 @@ def test_saturation_warning_while_training():
     assert saturation_warning("sqil", config, 1.0) and saturation_warning("sqil", config, 13.5) is None
     assert saturation_warning("iq_learn", config, -1e6) is None and saturation_warning("gail", config, -1e6) is None
     assert saturation_warning("lsiq", config, None) is None and saturation_warning("lsiq", config, float("nan")) is None
+    chi2 = {"env": {"gamma": 0.99}, "agent": {"reg_mult": 0.5, "loss_form": "chi2"}}  # floor -Q_max / 2
+    assert saturation_warning("lsiq", chi2, -95.0).startswith("warning: q_agent is -95, within 5% of its floor -100")
+    assert saturation_warning("lsiq", chi2, -80.0) is None
 
 
 def test_each_row_names_the_control_its_agents_act_in(dirs):
