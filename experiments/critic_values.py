@@ -27,14 +27,21 @@ SLACK = 1.25
 FLOOR_SHARE = 0.05  # of the range [floor, bound]: LS-IQ below -180 of [-200, 200], SQIL below 5 of [0, 100]
 
 
+def _gamma(config: dict[str, Any]) -> float:
+    return float((config.get("env") or {}).get("gamma", 0.99))
+
+
+def _lsiq_setting(config: dict[str, Any], key: str, default: Any) -> Any:
+    return (config.get("agent") or {}).get(key, default)
+
+
 def value_bound(algorithm: str, config: dict[str, Any]) -> tuple[float, str] | None:
     """``(bound on |Q|, where it comes from)`` for an off-policy algorithm and its run config; None for the others."""
-    gamma = float((config.get("env") or {}).get("gamma", 0.99))
-    horizon = 1.0 / (1.0 - gamma)
+    horizon = 1.0 / (1.0 - _gamma(config))
     if algorithm == "sqil":
         return horizon, "rewards in [0, 1]"
     if algorithm == "lsiq":
-        c = float((config.get("agent") or {}).get("reg_mult", 0.5))
+        c = float(_lsiq_setting(config, "reg_mult", 0.5))
         return horizon / c, f"LS-IQ's clipped targets, c = {c:g}"
     if algorithm == "iq_learn":
         return 10.0 * horizon, "10 / (1 - gamma), no fixed bound"
@@ -88,9 +95,8 @@ def value_floor(algorithm: str, config: dict[str, Any]) -> float | None:
     if algorithm == "sqil":
         return 0.0
     if algorithm == "lsiq" and bound is not None:
-        agent = config.get("agent") or {}
-        gamma = float((config.get("env") or {}).get("gamma", 0.99))
-        return lsiq_value_floor(float(agent.get("reg_mult", 0.5)), gamma, agent.get("loss_form", "least_squares"))
+        return lsiq_value_floor(float(_lsiq_setting(config, "reg_mult", 0.5)), _gamma(config),
+                                _lsiq_setting(config, "loss_form", "least_squares"))
     return None
 
 

@@ -46,8 +46,13 @@ class LSIQConfig(OffPolicyConfig):
         super().validate()
         if not self.reg_mult > 0:
             raise ValueError(f"reg_mult must be > 0, got {self.reg_mult}")
-        if self.loss_form not in LOSS_FORMS:
-            raise ValueError(f"loss_form must be one of {LOSS_FORMS}, got {self.loss_form!r}")
+        check_loss_form(self.loss_form)
+
+
+def check_loss_form(loss_form: str) -> None:
+    """ValueError naming the valid forms unless ``loss_form`` is one of them."""
+    if loss_form not in LOSS_FORMS:
+        raise ValueError(f"loss_form must be one of {LOSS_FORMS}, got {loss_form!r}")
 
 
 def q_bound(reg_mult: float, gamma: float) -> float:
@@ -57,8 +62,7 @@ def q_bound(reg_mult: float, gamma: float) -> float:
 
 def value_floor(reg_mult: float, gamma: float, loss_form: str = "least_squares") -> float:
     """``V_min``, the value of the lowest implicit reward forever: ``-Q_max`` (least squares), ``-Q_max / 2`` (chi2)."""
-    if loss_form not in LOSS_FORMS:
-        raise ValueError(f"loss_form must be one of {LOSS_FORMS}, got {loss_form!r}")
+    check_loss_form(loss_form)
     return -q_bound(reg_mult, gamma) / (1.0 if loss_form == "least_squares" else 2.0)
 
 
@@ -80,12 +84,12 @@ def lsiq_loss(batch: CriticBatch, reg_mult: float,
     """The LS-IQ critic loss of ``loss_form`` (module docstring), summed over the critics."""
     q_max = q_bound(reg_mult, batch.gamma)
     expert_term = (batch.q[:, batch.n_agent:] - q_max).square().mean(1)
-    y = lsiq_bootstrap(batch.next_v, batch.absorbing, batch.gamma, reg_mult, loss_form)
     if loss_form == "least_squares":
-        target = y - 1.0 / reg_mult
+        target = lsiq_value_target(batch.next_v, batch.absorbing, batch.gamma, reg_mult)
         value_term = (batch.v - target).square().mean(1)
         loss = (expert_term + value_term).sum()
         return loss, {"expert_term": expert_term.mean(), "value_term": value_term.mean(), "value_target": target.mean()}
+    y = lsiq_bootstrap(batch.next_v, batch.absorbing, batch.gamma, reg_mult, loss_form)
     reward = batch.q - y  # implicit reward of each (s, a), per critic
     value_term = (batch.v - y).mean(1)
     chi2 = reg_mult * reward.square().mean(1)
