@@ -223,7 +223,11 @@ def render_markdown(cells: list[Cell], agg: dict[str, dict[str, Any]], inputs: I
         "- **random / hold / expert R**: the returns of the task's references (uniformly random actions, a "
         "controller holding the home pose, the expert's dataset frames) that the row's scores are normalised by; "
         "for a row without an evaluation, those of the task's other evaluations where there are any "
-        "(`python experiments/evaluate.py --references TASK` computes them).",
+        "(`python experiments/evaluate.py --references TASK` computes them). One set per task, the one most of its "
+        "evaluations used: an evaluation made on another build of the same dataset (a machine whose BLAS kernels "
+        "round otherwise: another digest, expert and stand-still R equal within 1e-6, random R a few percent apart "
+        "as random rollouts are chaotic) is rescored with it from its per-episode returns, and its notes say so "
+        "(`experiments/table_references.py`).",
         "- **notes**: a row whose score interval reaches 0 (not shown to beat uniformly random actions) begins with "
         "\"did not learn\", its figures kept; an off-policy row whose critics' values passed 1.25x the range its "
         "rewards allow says \"critic diverged\", and one whose training ended with the critic valuing the agent's own "

@@ -23,7 +23,6 @@ from __future__ import annotations
 import functools
 import json
 import math
-from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -32,6 +31,7 @@ import numpy as np
 
 from experiments.critic_values import divergence_note, saturation_note
 from experiments.sweep_spec import build_spec, read_sweep_file
+from experiments.table_references import on_task_references, references_key, rescored_note, task_references
 from experiments.table_sources import (
     Budget,
     SeedResult,
@@ -163,19 +163,6 @@ def collect(results_dir: Path, runs_dir: Path, pretrained_dir: Path | None) -> I
     return Inputs(results, training_runs(runs_dir))
 
 
-def _key(refs: dict[str, Any]) -> str:
-    return json.dumps(refs, sort_keys=True)
-
-
-def task_references(results: list[SeedResult]) -> dict[str, dict[str, Any]]:
-    """Per task, the references most of its evaluations were scored against (ties: the first in sort order)."""
-    counts: dict[str, Counter] = {}
-    for r in results:
-        if r.references is not None:
-            counts.setdefault(r.base_task, Counter())[_key(r.references)] += 1
-    return {task: json.loads(sorted(c.items(), key=lambda kv: (-kv[1], kv[0]))[0][0]) for task, c in counts.items()}
-
-
 def _one_per_seed(results: list[SeedResult], notes: list[str]) -> list[SeedResult]:
     """The result with the most training steps of each seed (episodes preferred to a card), sorted by seed."""
     chosen = []
@@ -193,6 +180,7 @@ def build_cells(inputs: Inputs, results_dir: Path, runs_dir: Path) -> list[Cell]
     refs_of_task = task_references(inputs.results)
     by_cell: dict[tuple[str, str], list[SeedResult]] = {}
     for r in filter(in_grid, inputs.results):
+        r = on_task_references(r, refs_of_task.get(r.base_task))
         by_cell.setdefault((r.base_task, r.algorithm), []).append(r)
     cells = []
     for task in TASKS:
@@ -334,7 +322,8 @@ def _fill(cell: Cell, results: list[SeedResult], results_dir: Path, runs_dir: Pa
     _note_critic(cell, cell.budgets)
     if results[0].data == "perfect":
         cell.notes.insert(0, "(perfect data)")
-    refs = {_key(r.references) for r in results if r.references is not None}
+    cell.notes.extend(rescored_note(r) for r in results if r.own_references is not None)
+    refs = {references_key(r.references) for r in results if r.references is not None}
     if refs:
         cell.references = json.loads(sorted(refs)[0])
         if len(refs) > 1:

@@ -73,6 +73,7 @@ class SeedResult:
     machine: str | None = None
     stem: str | None = None  # <task>_<algo>[...] of the run, to find its training log
     control: str | None = None  # as its settings name it (None: not named, the task's default)
+    own_references: dict[str, Any] | None = None  # where the table rescored it: the references its file gave
 
     @property
     def base_task(self) -> str:

@@ -388,3 +388,28 @@ def test_divergence_warning_while_training():
     assert divergence_warning("lsiq", config, 240.0) is None and divergence_warning("lsiq", config, 260.0)
     assert divergence_warning("iq_learn", config, -2e3) and divergence_warning("iq_learn", config, 900.0) is None
     assert divergence_warning("vail", config, 1e9) is None and divergence_warning("sqil", config, None) is None
+
+
+def test_another_machines_build_of_the_dataset_is_rescored_with_the_tasks_references(dirs):
+    """Two builds of one recipe differ in their last bits (digest) and in random R (chaotic rollouts) only: the row
+    is scored against the task's references and says so; other differences keep the row's own references."""
+    results, runs = dirs
+    write_eval(results, "Talos.walk", "gail", 0, np.full(50, 68.0))  # score 10 under REFS
+    write_eval(results, "Talos.walk", "vail", 0, np.full(50, 116.0))  # score 20 under REFS
+    other_build = {"dataset_digest": "def", "random_return": 21.8, "expert_return": 500.0 * (1 + 2e-10)}
+    write_eval(results, "Talos.walk", "sqil", 0, np.full(50, 68.0), refs=other_build)
+    write_eval(results, "Talos.walk", "bc", 0, np.full(50, 68.0), refs={**other_build, "hold_return": 5.0})
+    rows, cells = table(results, runs)
+    sqil, bc = rows["Talos.walk", "sqil"], rows["Talos.walk", "bc"]
+    assert sqil.figures["score"] == pytest.approx(10.0)  # the task's references: random R 20
+    assert sqil.references["dataset_digest"] == "abc"
+    assert any("rescored with the task's references" in n and "def" in n and "random R 21.8 against 20.0" in n
+               and "equal within 2e-10" in n and f"scored {100 * (68 - 21.8) / (500 - 21.8):.1f}" in n
+               for n in sqil.notes)
+    assert not any("references of dataset" in n for n in sqil.notes)
+    # the stand-still return differs: not the same data, its own references and the note naming both datasets
+    assert bc.figures["score"] == pytest.approx(100 * (68 - 21.8) / (500 * (1 + 2e-10) - 21.8))
+    assert bc.references["dataset_digest"] == "def" and not any("rescored" in n for n in bc.notes)
+    assert any("references of dataset def" in n and "the task's other evaluations: dataset abc" in n for n in bc.notes)
+    # the aggregate reads the rescored episodes
+    assert [r.scores.mean() for r in sqil.results] == pytest.approx([10.0])
