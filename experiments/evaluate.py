@@ -66,12 +66,13 @@ def print_references(tasks: list[str], refresh: bool) -> list[dict]:
     from tqdm import tqdm
 
     rows = []
-    print(f"{'task':<34}{'expert R':>10}{'random R':>10}{'random L':>10}{'zero R':>9}{'zero L':>8}"
+    print(f"{'task':<34}{'expert R':>10}{'random R':>10}{'+- (se)':>9}{'random L':>10}{'zero R':>9}{'zero L':>8}"
           f"{'hold R':>9}{'hold L':>8}{'zero score':>12}{'hold score':>12}")
     for task in tqdm(tasks, desc="references", unit="task", leave=False):
         refs = references(task, refresh=refresh)
         s = stand_still_scores(refs)
-        tqdm.write(f"{task:<34}{refs.expert_return:10.1f}{refs.random_return:10.1f}{refs.random_length:10.1f}"
+        tqdm.write(f"{task:<34}{refs.expert_return:10.1f}{refs.random_return:10.1f}{refs.random_return_se:9.2f}"
+                   f"{refs.random_length:10.1f}"
                    f"{refs.zero_return:9.1f}{refs.zero_length:8.0f}{refs.hold_return:9.1f}{refs.hold_length:8.0f}"
                    f"{s['zero']:12.2f}{s['hold']:12.2f}")
         rows.append({"task": task, **refs.__dict__, "stand_still_scores": s})
@@ -210,7 +211,8 @@ def main(argv: list[str] | None = None) -> int:
     refs = references(subject.task, subject.env, progress=True)
     eval_task, eval_kwargs = protocol.evaluation_task(subject.task, subject.env)
     print(f"references ({eval_task}, {', '.join(f'{k}={v}' for k, v in eval_kwargs.items())}): expert R "
-          f"{refs.expert_return:.1f}, random R {refs.random_return:.1f} (L {refs.random_length:.1f}), "
+          f"{refs.expert_return:.1f}, random R {refs.random_return:.1f} +- {refs.random_return_se:.1f} "
+          f"({refs.random_episodes} episodes, L {refs.random_length:.1f}), "
           f"zero action R {refs.zero_return:.1f}, hold pose R {refs.hold_return:.1f}")
 
     results: dict = {"task": subject.task, "algorithm": subject.algorithm, "seed": subject.seed,

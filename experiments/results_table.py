@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import csv
 import io
+import json
 import math
 import sys
 from collections.abc import Callable
@@ -25,6 +26,8 @@ from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # run from a checkout without installing
+
+from tqdm import tqdm  # noqa: E402
 
 from baselines import is_offline  # noqa: E402
 from experiments.table_cells import (  # noqa: E402
@@ -37,8 +40,10 @@ from experiments.table_cells import (  # noqa: E402
     aggregates,
     build_cells,
     collect,
+    committed_config,
     in_grid,
 )
+from experiments.table_references import references_file  # noqa: E402
 from experiments.table_sources import format_steps  # noqa: E402
 from loco_mujoco.evaluation.intervals import BOOTSTRAP_REPS  # noqa: E402
 
@@ -115,7 +120,8 @@ CSV_COLUMNS = ("task", "algorithm", "status", "data", "control", "score_mean", "
                "score_iqm", "seeds", "seeds_planned", "episodes", "R_mean", "R_ci_low", "R_ci_high", "L_mean",
                "L_ci_low", "L_ci_high", "gait_deviation", "dtw_joints_rad", "dtw_sites_m", "classifier_auc",
                "steps_per_seed", "step_unit", "train_hours_per_seed", "machine", "random_R", "hold_pose_R",
-               "zero_action_R", "expert_R", "references_dataset", "sources", "notes")
+               "zero_action_R", "expert_R", "random_R_se", "random_episodes", "references_dataset",
+               "score_mean_own_references", "sources", "notes")
 
 
 def _csv_number(x: float | None) -> str:
@@ -142,7 +148,9 @@ def render_csv(cells: list[Cell]) -> str:
                     ";".join(_csv_number(b.hours) for b in c.budgets), _machines(c),
                     _csv_number(refs.get("random_return")), _csv_number(refs.get("hold_return")),
                     _csv_number(refs.get("zero_return")), _csv_number(refs.get("expert_return")),
-                    refs.get("dataset_digest", ""), ";".join(r.source for r in c.results), "; ".join(c.notes)])
+                    _csv_number(refs.get("random_return_se")), refs.get("random_episodes") or "",
+                    refs.get("dataset_digest", ""), _csv_number(f.get("score_own")),
+                    ";".join(r.source for r in c.results), "; ".join(c.notes)])
     return buf.getvalue()
 
 
@@ -221,13 +229,15 @@ def render_markdown(cells: list[Cell], agg: dict[str, dict[str, Any]], inputs: I
         "against AVX2) and CPU count that trained each stretch of the run, from the run's `machines.csv` (written "
         "at every start and resume since 2026-11-27; '-' for older runs).",
         "- **random / hold / expert R**: the returns of the task's references (uniformly random actions, a "
-        "controller holding the home pose, the expert's dataset frames) that the row's scores are normalised by; "
-        "for a row without an evaluation, those of the task's other evaluations where there are any "
-        "(`python experiments/evaluate.py --references TASK` computes them). One set per task, the one most of its "
-        "evaluations used: an evaluation made on another build of the same dataset (a machine whose BLAS kernels "
-        "round otherwise: another digest, expert and stand-still R equal within 1e-6, random R a few percent apart "
-        "as random rollouts are chaotic) is rescored with it from its per-episode returns, and its notes say so "
-        "(`experiments/table_references.py`).",
+        "controller holding the home pose, the expert's dataset frames) that the row's scores are normalised by: one "
+        "set per task, `results/references/<task>.json`, measured under the task's committed env settings with "
+        "1,000 random-action episodes (random R's standard error 0.2-0.7; `python experiments/results_table.py "
+        "--measure-references`). Each evaluation is rescored with them from its per-episode returns where its own "
+        "references were measured on the same data and settings (expert and stand-still R equal within 1e-6): "
+        "evaluation files before 2026-11-30 used 50 random episodes (random R within +-2-3 of its mean), and a "
+        "machine whose BLAS kernels round otherwise builds the same dataset with other last bits (another digest). "
+        "The CSV keeps each row's score under its files' own references (`score_mean_own_references`); a row "
+        "whose references differ otherwise keeps them and its notes say so.",
         "- **notes**: a row whose score interval reaches 0 (not shown to beat uniformly random actions) begins with "
         "\"did not learn\", its figures kept; an off-policy row whose critics' values passed 1.25x the range its "
         "rewards allow says \"critic diverged\", and one whose training ended with the critic valuing the agent's own "
@@ -279,6 +289,39 @@ def render_markdown(cells: list[Cell], agg: dict[str, dict[str, Any]], inputs: I
     return "\n".join(lines) + "\n"
 
 
+def task_env_settings(task: str) -> dict[str, Any]:
+    """The env settings that the committed configs of all grid algorithms give ``task`` (one set per embodiment:
+    ``configs/defaults.yaml`` embodiments), under which its references are measured."""
+    found = {json.dumps(committed_config(task, a).env, sort_keys=True) for a in ALGORITHMS}
+    if len(found) != 1:
+        raise ValueError(f"the committed configs of {task} give {len(found)} sets of env settings ({sorted(found)}): "
+                         "one set of references cannot serve its rows")
+    return json.loads(found.pop())
+
+
+def measure_references(results_dir: Path, force: bool) -> int:
+    """Measure each grid task's references under its committed settings (the protocol's random episodes; cached
+    per machine) and write ``<results>/references/<task>.json``; a file with other content is replaced only with
+    ``force``."""
+    from dataclasses import asdict
+
+    from loco_mujoco.evaluation.references import references
+
+    written = []
+    for task in tqdm(TASKS, desc="references", unit="task"):
+        text = json.dumps(asdict(references(task, task_env_settings(task), progress=True)), indent=1,
+                          sort_keys=True) + "\n"
+        path = references_file(results_dir, task)
+        if path.exists() and path.read_text() != text and not force:
+            print(f"error: {path} holds other references; pass --force to replace it", file=sys.stderr)
+            return 2
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+        written.append(str(path))
+    print(f"wrote {', '.join(written)}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     from loco_mujoco.agent_datasets import pretrained_root
 
@@ -290,11 +333,16 @@ def main(argv: list[str] | None = None) -> int:
                              "(default: the repository's pretrained/; 'none' to leave cards out)")
     parser.add_argument("--out", default="results", help="folder of table.md, table.csv and performance_profile.png")
     parser.add_argument("--force", action="store_true", help="replace existing outputs")
+    parser.add_argument("--measure-references", action="store_true",
+                        help="measure every task's references under its committed settings into "
+                             "<results>/references/<task>.json (the table's normalisation), then stop")
     args = parser.parse_args(argv)
     results_dir, runs_dir, out = Path(args.results), Path(args.runs), Path(args.out)
     if not results_dir.is_dir():
         print(f"error: --results {results_dir} is not a folder", file=sys.stderr)
         return 2
+    if args.measure_references:
+        return measure_references(results_dir, args.force)
     existing = [str(out / name) for name in OUTPUTS if (out / name).exists()]
     if existing and not args.force:
         print(f"error: {', '.join(existing)} exist; pass --force to replace them, or --out another folder",

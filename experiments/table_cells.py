@@ -31,7 +31,13 @@ import numpy as np
 
 from experiments.critic_values import divergence_note, saturation_note
 from experiments.sweep_spec import build_spec, read_sweep_file
-from experiments.table_references import on_task_references, references_key, rescored_note, task_references
+from experiments.table_references import (
+    committed_references,
+    on_task_references,
+    own_scores,
+    references_key,
+    task_references,
+)
 from experiments.table_sources import (
     Budget,
     SeedResult,
@@ -105,10 +111,11 @@ def inverse_dynamics_refuses(task: str, control: str | None, disable_arms: bool)
 
 @dataclass
 class Inputs:
-    """Every result read (evaluation files and cards) and every run directory."""
+    """Every result read (evaluation files and cards), every run directory and the committed references."""
 
     results: list[SeedResult]
     runs: list[TrainingRun]
+    references: dict[str, dict[str, Any]] = field(default_factory=dict)  # per task, results/references/<task>.json
 
 
 def in_grid(result: SeedResult) -> bool:
@@ -151,7 +158,7 @@ class Cell:
 
 def collect(results_dir: Path, runs_dir: Path, pretrained_dir: Path | None) -> Inputs:
     """Evaluation files ``<results>/*_eval.json``, cards ``<pretrained>/*/*/seed*/card.json`` whose seed no evaluation
-    file covers, and run directories under ``runs_dir``."""
+    file covers, run directories under ``runs_dir`` and the committed references ``<results>/references/``."""
     results = [read_evaluation(p) for p in sorted(results_dir.glob("*_eval.json"))]
     covered = {(r.task, r.algorithm, r.seed) for r in results}
     if pretrained_dir is not None:
@@ -160,7 +167,7 @@ def collect(results_dir: Path, runs_dir: Path, pretrained_dir: Path | None) -> I
                 card = read_card(path)
                 if (card.task, card.algorithm, card.seed) not in covered:
                     results.append(card)
-    return Inputs(results, training_runs(runs_dir))
+    return Inputs(results, training_runs(runs_dir), committed_references(results_dir))
 
 
 def _one_per_seed(results: list[SeedResult], notes: list[str]) -> list[SeedResult]:
@@ -177,7 +184,7 @@ def _one_per_seed(results: list[SeedResult], notes: list[str]) -> list[SeedResul
 
 def build_cells(inputs: Inputs, results_dir: Path, runs_dir: Path) -> list[Cell]:
     """The 42 rows, their seeds pooled, budgets found and notes written."""
-    refs_of_task = task_references(inputs.results)
+    refs_of_task = task_references(inputs.results, inputs.references)
     by_cell: dict[tuple[str, str], list[SeedResult]] = {}
     for r in filter(in_grid, inputs.results):
         r = on_task_references(r, refs_of_task.get(r.base_task))
@@ -322,7 +329,6 @@ def _fill(cell: Cell, results: list[SeedResult], results_dir: Path, runs_dir: Pa
     _note_critic(cell, cell.budgets)
     if results[0].data == "perfect":
         cell.notes.insert(0, "(perfect data)")
-    cell.notes.extend(rescored_note(r) for r in results if r.own_references is not None)
     refs = {references_key(r.references) for r in results if r.references is not None}
     if refs:
         cell.references = json.loads(sorted(refs)[0])
@@ -330,10 +336,9 @@ def _fill(cell: Cell, results: list[SeedResult], results_dir: Path, runs_dir: Pa
             cell.notes.append("seeds scored against different references (each its own)")
         if task_refs is not None and cell.references != task_refs:
             own, other = cell.references, task_refs
-            what = ("dataset {dataset_digest} (expert R {expert_return:.1f})" if own["dataset_digest"] !=
-                    other["dataset_digest"] else "settings {env_settings} (expert R {expert_return:.1f})")
-            cell.notes.append(f"references of {what.format(**own)}; the task's other evaluations: "
-                              f"{what.format(**other)}")
+            what = ("settings {env_settings} (expert R {expert_return:.1f})" if own["env_settings"] !=
+                    other["env_settings"] else "dataset {dataset_digest} (expert R {expert_return:.1f})")
+            cell.notes.append(f"references of {what.format(**own)}; the task's: {what.format(**other)}")
     f = cell.figures
     if not episodes:  # one card: its summaries as they are
         card = results[0].card_summary
@@ -345,10 +350,11 @@ def _fill(cell: Cell, results: list[SeedResult], results_dir: Path, runs_dir: Pa
     scores = np.concatenate([r.scores for r in results])
     returns = np.concatenate([r.returns for r in results])
     lengths = np.concatenate([r.lengths for r in results])
-    # the seeds evaluate.py uses (score: the protocol's, R and L: 0), so a one-seed row repeats its file's intervals
+    # the seeds evaluate.py uses (score: the protocol's, R and L: 0), so a one-seed row scored against its file's
+    # references repeats the file's intervals
     f.update(score=float(scores.mean()), score_ci=mean_interval(scores, seed=SEED), score_iqm=iqm(scores),
              R=float(returns.mean()), R_ci=mean_interval(returns), L=float(lengths.mean()), L_ci=mean_interval(lengths),
-             episodes=int(scores.size))
+             episodes=int(scores.size), score_own=float(np.concatenate([own_scores(r) for r in results]).mean()))
     for name in ("gait_deviation", "dtw_joints", "dtw_sites"):
         f[name] = _pooled_mean([r.episode_metrics[name] for r in results if name in r.episode_metrics])
     auc = [r.evaluation_metrics["classifier_auc"] for r in results if "classifier_auc" in r.evaluation_metrics]

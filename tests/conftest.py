@@ -15,6 +15,11 @@ if os.environ.get("PYTEST_XDIST_WORKER"):
     torch.set_num_threads(1)
 
 import loco_mujoco as lm  # noqa: E402
+import loco_mujoco.evaluation.references as reference_policies  # noqa: E402
+
+# The protocol's 1,000 random-action episodes per reference set cost 20-40 s per task and settings: the tests' runs
+# and evaluations (scores of untrained agents) take 20, a test of the default sets its own.
+reference_policies.RANDOM_EPISODES = 20
 
 # Every task name without a dataset type; of the body-size modes only "all" and the smallest ("1").
 BASE_TASKS = [t for t in lm.list_tasks() if t.split(".")[-1] not in ("real", "perfect", "preference")

@@ -113,6 +113,25 @@ def test_references_are_cached_per_settings_and_define_the_score(tmp_path, monke
     assert refs.expert_return > 10 * refs.random_return > 0
 
 
+def test_references_default_to_the_protocols_random_episodes_and_report_their_standard_error(tmp_path, monkeypatch):
+    """Without ``episodes`` the random reference runs ``RANDOM_EPISODES`` episodes (1,000; conftest lowers it for the
+    tests); the first of them are the episodes a shorter run gives (same seeds), and the file records how many and
+    the mean's standard error."""
+    from loco_mujoco.evaluation import references as module
+
+    assert module.VERSION == 2
+    monkeypatch.setenv("LOCO_MUJOCO_CACHE", str(tmp_path))
+    monkeypatch.setattr(module, "RANDOM_EPISODES", 12)
+    env = lm.LocoEnv.make("UnitreeH1.walk", control="pd", random_start=True)
+    returns = protocol.run_episodes(env, module.random_policy(env), 12).returns
+    refs = references("UnitreeH1.walk", {"control": "pd"})
+    assert refs.random_episodes == 12
+    assert refs.random_return == pytest.approx(returns.mean())
+    assert refs.random_return_se == pytest.approx(returns.std(ddof=1) / np.sqrt(12))
+    fewer = references("UnitreeH1.walk", {"control": "pd"}, episodes=4)
+    assert fewer.random_return == pytest.approx(returns[:4].mean()) and fewer.random_episodes == 4
+
+
 def test_hold_pose_policy_targets_the_home_pose():
     env = lm.LocoEnv.make("Atlas.walk", control="pd")
     env.reset()

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import yaml
 
-from experiments.results_table import OUTPUTS, main
+from experiments.results_table import OUTPUTS, main, render_csv
 from experiments.table_cells import (
     ALGORITHMS,
     DID_NOT_LEARN,
@@ -390,9 +390,10 @@ def test_divergence_warning_while_training():
     assert divergence_warning("vail", config, 1e9) is None and divergence_warning("sqil", config, None) is None
 
 
-def test_another_machines_build_of_the_dataset_is_rescored_with_the_tasks_references(dirs):
+def test_another_build_of_the_dataset_is_rescored_with_the_tasks_references(dirs):
     """Two builds of one recipe differ in their last bits (digest) and in random R (chaotic rollouts) only: the row
-    is scored against the task's references and says so; other differences keep the row's own references."""
+    is scored against the task's references, its own score kept in the CSV; other differences keep the row's own
+    references and say so."""
     results, runs = dirs
     write_eval(results, "Talos.walk", "gail", 0, np.full(50, 68.0))  # score 10 under REFS
     write_eval(results, "Talos.walk", "vail", 0, np.full(50, 116.0))  # score 20 under REFS
@@ -402,14 +403,59 @@ def test_another_machines_build_of_the_dataset_is_rescored_with_the_tasks_refere
     rows, cells = table(results, runs)
     sqil, bc = rows["Talos.walk", "sqil"], rows["Talos.walk", "bc"]
     assert sqil.figures["score"] == pytest.approx(10.0)  # the task's references: random R 20
-    assert sqil.references["dataset_digest"] == "abc"
-    assert any("rescored with the task's references" in n and "def" in n and "random R 21.8 against 20.0" in n
-               and "equal within 2e-10" in n and f"scored {100 * (68 - 21.8) / (500 - 21.8):.1f}" in n
-               for n in sqil.notes)
-    assert not any("references of dataset" in n for n in sqil.notes)
+    assert sqil.figures["score_own"] == pytest.approx(100 * (68 - 21.8) / (500 * (1 + 2e-10) - 21.8))
+    assert sqil.references["dataset_digest"] == "abc" and not any("references" in n for n in sqil.notes)
+    assert [r.scores.mean() for r in sqil.results] == pytest.approx([10.0])  # what the aggregate reads
     # the stand-still return differs: not the same data, its own references and the note naming both datasets
     assert bc.figures["score"] == pytest.approx(100 * (68 - 21.8) / (500 * (1 + 2e-10) - 21.8))
-    assert bc.references["dataset_digest"] == "def" and not any("rescored" in n for n in bc.notes)
-    assert any("references of dataset def" in n and "the task's other evaluations: dataset abc" in n for n in bc.notes)
-    # the aggregate reads the rescored episodes
-    assert [r.scores.mean() for r in sqil.results] == pytest.approx([10.0])
+    assert bc.references["dataset_digest"] == "def"
+    assert any("references of dataset def" in n and "the task's: dataset abc" in n for n in bc.notes)
+    csv_row = next(line for line in render_csv(cells).splitlines() if line.startswith("Talos.walk,sqil,"))
+    assert f"{100 * (68 - 21.8) / (500 * (1 + 2e-10) - 21.8):.6g}" in csv_row
+
+
+def test_committed_references_normalise_their_tasks_rows(dirs):
+    """<results>/references/<task>.json (1,000 random episodes) replaces the evaluations' own 50-episode random R on
+    the same data; a row measured under other settings keeps its own; a file naming another task is refused."""
+    results, runs = dirs
+    write_eval(results, "Atlas.walk", "gail", 0, np.full(50, 68.0))
+    write_eval(results, "Atlas.walk", "vail", 0, np.full(50, 68.0), refs={"env_settings": {"control": "'torque'"}})
+    committed = {**REFS, "task": "Atlas.walk", "random_return": 24.0, "random_return_se": 0.4, "random_episodes": 1000,
+                 "dataset_digest": "xyz"}
+    (results / "references").mkdir()
+    (results / "references" / "Atlas.walk.json").write_text(json.dumps(committed))
+    rows, cells = table(results, runs)
+    gail, vail = rows["Atlas.walk", "gail"], rows["Atlas.walk", "vail"]
+    assert gail.figures["score"] == pytest.approx(100 * (68 - 24) / (500 - 24))
+    assert gail.figures["score_own"] == pytest.approx(10.0) and gail.references == committed
+    assert rows["Atlas.walk", "bc"].references == committed  # rows without an evaluation show the task's
+    assert vail.figures["score"] == pytest.approx(10.0) and vail.references["dataset_digest"] == "abc"
+    assert any("references of settings" in n for n in vail.notes)
+    csv_row = next(line for line in render_csv(cells).splitlines() if line.startswith("Atlas.walk,gail,"))
+    assert ",0.4,1000,xyz," in csv_row
+    (results / "references" / "Talos.walk.json").write_text(json.dumps(committed))
+    with pytest.raises(ValueError, match="Talos.walk.json holds the references of 'Atlas.walk'"):
+        table(results, runs)
+
+
+def test_measure_references_writes_each_task_once_and_never_replaces_unasked(dirs, monkeypatch, capsys):
+    import loco_mujoco.evaluation.references as module
+
+    results, _ = dirs
+    calls = []
+
+    def fake(task, env_kwargs, progress=False):
+        calls.append((task, env_kwargs))
+        return module.References(**{**REFS, "task": task, "random_return": 1.0 + len(calls)})
+
+    monkeypatch.setattr(module, "references", fake)
+    assert main(["--results", str(results), "--measure-references"]) == 0
+    assert [t for t, _ in calls] == list(TASKS)
+    assert dict(calls)["Talos.walk"]["control"] == "pd" and "control" not in dict(calls)["HumanoidMuscle.walk"]
+    first = json.loads((results / "references" / "Talos.walk.json").read_text())
+    assert first["task"] == "Talos.walk" and first["random_return"] == 3.0
+    assert main(["--results", str(results), "--measure-references"]) == 2  # other values: refused
+    assert "pass --force" in capsys.readouterr().err
+    assert json.loads((results / "references" / "Talos.walk.json").read_text()) == first
+    assert main(["--results", str(results), "--measure-references", "--force"]) == 0
+    assert json.loads((results / "references" / "Talos.walk.json").read_text())["random_return"] > 3.0

@@ -18,9 +18,12 @@ import mujoco
 import numpy as np
 
 from loco_mujoco.atomic_write import atomic_write
-from loco_mujoco.evaluation.protocol import EPISODES, SEED, Policy, evaluation_task, run_episodes
+from loco_mujoco.evaluation.protocol import SEED, Policy, evaluation_task, run_episodes
 
-VERSION = 1  # bump when the reward, the protocol or a reference policy changes
+VERSION = 2  # bump when the reward, the protocol or a reference policy changes (2: 1,000 random episodes)
+# Random-action returns spread widely (sd 16.4 R on Talos.walk, 13.4 on UnitreeH1.walk): the protocol's 50 episodes
+# left random R within +-2.2-2.5 (+-0.5 score points, shared by every agent of a task); 1,000 leave +-0.4-0.5.
+RANDOM_EPISODES = 1000
 STAND_STILL_EPISODES = 5
 # Settings that do not change what an episode earns, left out of the cache key.
 _NOT_IN_KEY = {"seed", "viewer_params"}
@@ -42,6 +45,8 @@ class References:
     hold_length: float
     dataset_digest: str
     env_settings: dict
+    random_episodes: int = 0  # 0: measured before version 2 recorded it (50 episodes)
+    random_return_se: float = float("nan")  # standard error of random_return
 
     def normalized_score(self, returns: np.ndarray | float) -> np.ndarray | float:
         """100 * (R - random) / (expert - random)."""
@@ -105,11 +110,13 @@ def _cache_file(task: str, key: dict):
     return cache_dir() / "references" / f"{task}.{digest}.json"
 
 
-def compute_references(task: str, env_kwargs: dict[str, Any] | None = None, episodes: int = EPISODES,
+def compute_references(task: str, env_kwargs: dict[str, Any] | None = None, episodes: int | None = None,
                        seed: int = SEED, progress: bool = False, env=None) -> References:
     """Measure the four references of ``task`` for ``LocoEnv.make(task, **env_kwargs)`` (no cache); ``env``, if
-    given, is that environment already built."""
+    given, is that environment already built; ``episodes`` random-action episodes (default ``RANDOM_EPISODES``)."""
     from loco_mujoco import LocoEnv
+
+    episodes = RANDOM_EPISODES if episodes is None else episodes
 
     task, kwargs = evaluation_task(task, env_kwargs)
     kwargs = {"random_start": True, **kwargs}
@@ -126,13 +133,17 @@ def compute_references(task: str, env_kwargs: dict[str, Any] | None = None, epis
                       random_return=float(rnd.returns.mean()), random_length=float(rnd.lengths.mean()),
                       zero_return=float(zero.returns.mean()), zero_length=float(zero.lengths.mean()),
                       hold_return=float(hold.returns.mean()), hold_length=float(hold.lengths.mean()),
-                      dataset_digest=dataset_digest(env), env_settings=_settings(kwargs))
+                      dataset_digest=dataset_digest(env), env_settings=_settings(kwargs), random_episodes=episodes,
+                      random_return_se=float(rnd.returns.std(ddof=1) / np.sqrt(episodes)) if episodes > 1 else 0.0)
 
 
-def references(task: str, env_kwargs: dict[str, Any] | None = None, episodes: int = EPISODES, seed: int = SEED,
+def references(task: str, env_kwargs: dict[str, Any] | None = None, episodes: int | None = None, seed: int = SEED,
                refresh: bool = False, progress: bool = False) -> References:
-    """The cached references of ``task`` under ``env_kwargs``, computed on first use (or when ``refresh``)."""
+    """The cached references of ``task`` under ``env_kwargs``, computed on first use (or when ``refresh``);
+    ``episodes`` random-action episodes (default ``RANDOM_EPISODES``)."""
     from loco_mujoco import LocoEnv
+
+    episodes = RANDOM_EPISODES if episodes is None else episodes
 
     task, kwargs = evaluation_task(task, env_kwargs)
     kwargs = {"random_start": True, **kwargs}
