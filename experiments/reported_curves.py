@@ -7,7 +7,9 @@ the curve's last evaluation at or before its own step count: same evaluation (th
 Only reported runs whose ``env`` and ``agent`` settings agree with the run's (where both name a value; the torch
 thread count aside) are compared: a run with other hyperparameters is another experiment.
 Older logs predate the normalised score (and their R used the earlier reward), so only the figures both logs
-hold are compared, and L (episode length, the same termination throughout) always is.
+hold are compared, and L (episode length, the same termination throughout) always is. Scores logged before
+2026-11-30 were normalised by 50 random-action episodes, today's by 1,000 (references version 2): up to 1 point
+apart on the same returns (HumanoidMuscle.walk; results/README.md).
 """
 
 from __future__ import annotations
