@@ -221,6 +221,7 @@ class Trainer:
         self.eval_env = evaluation_env(run.task, run.env, seed=run.train.eval_seed)  # the real task's starts
         self.out_dir.mkdir(parents=True, exist_ok=True)  # only now: a start that fails leaves nothing behind
         self.epoch, self.steps, self.wall_s = 0, 0, 0.0
+        self.stopped_at_deadline = False  # set by train(deadline=...)
         if state is not None:
             self._restore(state)
             _truncate_csv(self.out_dir / "progress.csv", self.steps)
@@ -232,8 +233,15 @@ class Trainer:
         self.logger = CSVLogger(self.out_dir)
 
     # ---- the loop -------------------------------------------------------------------------------------
-    def train(self) -> dict[str, float]:
+    def train(self, deadline: float | None = None) -> dict[str, float]:
+        """Train to ``run.train.n_steps``, an evaluation and a checkpoint after every epoch; with ``deadline`` (a
+        ``time.time()`` value) stop instead after the last checkpoint whose next epoch is not expected to end by
+        then (``stopped_at_deadline`` says so; the run resumes from that checkpoint). The next epoch is expected
+        to take as long as this call's last one (learning, evaluation and checkpoint) or, before it, as its steps
+        at the rate the run last logged."""
         run, last_eval = self.run, {}
+        self.stopped_at_deadline = False
+        epoch_s = self._logged_epoch_s()
         if self.collector is None:
             core = Core(self.agent, self.env, callbacks_fit=[self._on_fit])
         else:
@@ -248,7 +256,10 @@ class Trainer:
                 n -= n % run.train.n_steps_per_fit
                 if n == 0:
                     break
-                start = time.perf_counter()
+                if deadline is not None and time.time() + (epoch_s or 0.0) * n / run.train.epoch_steps > deadline:
+                    self.stopped_at_deadline = True
+                    break
+                epoch_start = start = time.perf_counter()
                 self._learn(core, n)
                 train_s = time.perf_counter() - start
                 self.steps += n
@@ -269,6 +280,7 @@ class Trainer:
                 self._bar.set_postfix(score=f"{last_eval['score']:.1f}", L=f"{last_eval['L']:.0f}",
                                       R=f"{last_eval['R']:.1f}",
                                       task_r=f"{last_eval['task_reward']:.3f}")
+                epoch_s = (time.perf_counter() - epoch_start) * run.train.epoch_steps / n
         finally:
             self._bar.close()
             self.agent.stop()
@@ -276,6 +288,15 @@ class Trainer:
             if self.collector is not None:
                 self.collector.close()  # its worker threads; a later train() steps the envs in this thread
         return last_eval
+
+    def _logged_epoch_s(self) -> float | None:
+        """Seconds of learning one full epoch took at the rate the run's log last recorded (None: no log yet)."""
+        path = self.out_dir / "progress.csv"
+        if not path.exists():
+            return None
+        with path.open(newline="") as f:
+            rates = [float(r["train_steps_per_s"]) for r in csv.DictReader(f) if r.get("train_steps_per_s")]
+        return self.run.train.epoch_steps / rates[-1] if rates and rates[-1] > 0 else None
 
     def _learn(self, core: Core | None, n: int) -> None:
         """``n`` steps of training: environment steps for on-policy agents (``Core`` with one env, or the batched

@@ -4,7 +4,8 @@ The configuration comes from ``configs/defaults.yaml`` (shared, per algorithm fa
 ``configs/<algo>/<task>.yaml``; ``--print-config`` shows the result and where each value came from. The run directory
 (``--out``, default ``runs/<task>/<algo>/seed<N>``) receives the resolved config, ``progress.csv``,
 TensorBoard logs and ``checkpoint.pt`` after every epoch. Ctrl-C (or a kill) loses at most the epoch in
-progress; ``--resume`` continues bit for bit from the last checkpoint, and ``--steps`` may extend the run.
+progress; ``--time-limit MINUTES`` loses nothing: the run stops at its last checkpoint that fits (a session's or a
+cluster job's end). ``--resume`` continues bit for bit from the last checkpoint, and ``--steps`` may extend the run.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from __future__ import annotations
 import argparse
 import signal
 import sys
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -43,6 +45,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--threads", type=int, help="torch threads of the learner (default: the config's)")
     parser.add_argument("--out", help="run directory (default: runs/<task>/<algo>/seed<N>)")
     parser.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
+    parser.add_argument("--time-limit", type=float, metavar="MINUTES",
+                        help="stop after the last checkpoint whose next epoch would end later than MINUTES from "
+                             "now (estimated from the last epoch's duration); --resume continues the run")
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                         help="override one config value (repeatable), e.g. --set train.n_steps_per_fit=5000")
     parser.add_argument("--init-from", metavar="CHECKPOINT",
@@ -111,6 +116,7 @@ def _compare_with_reported(run: Any) -> Callable[[int, dict[str, float]], str]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    started = time.time()  # --time-limit counts from here
     args = parse_args(argv)
     if args.resume and (args.set or args.epoch_steps is not None):
         print("error: --resume continues with the checkpoint's own configuration (only --steps may extend it); "
@@ -126,6 +132,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.print_config:
         print(format_config(run))
         return 0
+    if args.time_limit is not None and not args.time_limit > 0:
+        print(f"error: --time-limit must be a positive number of minutes, got {args.time_limit}", file=sys.stderr)
+        return 2
+    deadline = None if args.time_limit is None else started + 60.0 * args.time_limit
     out = Path(args.out) if args.out else run_dir("runs", args.env, args.algo, args.seed)
     try:
         trainer = Trainer(run, out, resume=args.resume, progress=not args.quiet, init_from=args.init_from,
@@ -137,11 +147,14 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{run.algorithm} on {run.task}, seed {run.seed}: {trainer.steps:,} of {trainer.run.train.n_steps:,} steps "
           f"done, run directory {out}", flush=True)
     try:
-        result = trainer.train()
+        result = trainer.train(deadline=deadline)
     except KeyboardInterrupt:
         print(f"\ninterrupted; checkpoint at epoch {trainer.epoch} ({trainer.steps:,} steps) in {out}. "
               f"Continue with: --resume --out {out}", file=sys.stderr)
         return 130
+    if trainer.stopped_at_deadline:
+        print(f"stopped at the time limit ({args.time_limit:g} min) after epoch {trainer.epoch} "
+              f"({trainer.steps:,} of {trainer.run.train.n_steps:,} steps). Continue with: --resume --out {out}")
     if result:
         print(f"epoch {trainer.epoch}, {trainer.steps:,} steps: R={result['R']:.2f} J={result['J']:.2f} "
               f"L={result['L']:.1f} task_reward={result['task_reward']:.4f} (deterministic, "

@@ -13,7 +13,9 @@ continues the table's unfinished runs; with ``--skip-landed`` a trial whose run 
 (``pretrained/<task>/<algo>/seed<N>``, at least the trial's steps) is skipped and shown as landed, with the
 configuration values its export differs in. So ``sweep.py --config sweeps/table.yaml --from-parked --skip-landed``
 trains what the results table still lacks. A live table shows each trial (pending, running with its step count,
-finished, failed with the error's last line); the exit status is 1 if any trial failed. Trials start as CPUs free
+finished, stopped, failed with the error's last line); the exit status is 1 if any trial failed. With
+``--time-limit MINUTES`` every trial stops after its last checkpoint that fits in that time (a session's or a
+cluster job's end) and the same command later resumes it. Trials start as CPUs free
 up: those resuming a checkpoint first, then each (task, algorithm)'s first seed before any one's second
 (:func:`start_order`).
 
@@ -30,6 +32,7 @@ import os
 import signal
 import socket
 import sys
+import time
 from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
@@ -85,6 +88,10 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                         help="skip each trial whose run land_run.py exported to DIR/<task>/<algo>/seed<N> with at "
                              "least the trial's steps, listing the configuration values the export differs in "
                              "(default DIR: $LOCO_MUJOCO_PRETRAINED or pretrained/)")
+    parser.add_argument("--time-limit", type=float, metavar="MINUTES",
+                        help="each trial stops after its last checkpoint whose next epoch would end later than "
+                             "MINUTES after the sweep's start (trials not started by then are not started); "
+                             "the same command later resumes them")
     parser.add_argument("--plan", action="store_true",
                         help="print what each trial would do (start, resume from its checkpoint or a parked state, "
                              "or nothing: finished) and the steps left, then exit: nothing is started or written "
@@ -103,6 +110,7 @@ def require_ray() -> ModuleType:
 
 
 def main(argv: list[str] | None = None) -> int:
+    started = time.time()  # --time-limit counts from here
     args = parse_args(argv)
     try:
         if args.address and args.num_cpus is not None:
@@ -110,6 +118,8 @@ def main(argv: list[str] | None = None) -> int:
                                  "CPUs its `ray start` commands gave it")
         if args.num_cpus is not None and args.num_cpus < 1:
             raise SweepSpecError(f"--num-cpus must be at least 1, got {args.num_cpus}")
+        if args.time_limit is not None and not args.time_limit > 0:
+            raise SweepSpecError(f"--time-limit must be a positive number of minutes, got {args.time_limit}")
         spec = build_spec(read_sweep_file(args.config) if args.config else {},
                           {"tasks": args.tasks, "algos": args.algos, "seeds": args.seeds, "steps": args.steps,
                            "out": args.out, "set": args.set, "cpus_per_trial": args.cpus_per_trial,
@@ -170,7 +180,8 @@ def main(argv: list[str] | None = None) -> int:
                       "their token by default: RAY_AUTH_MODE=token here, with the head's ~/.ray/auth_token copied "
                       "to this machine (or RAY_AUTH_TOKEN set)", file=sys.stderr)
                 return 2
-        outcomes = _run(ray, spec.cpus_per_trial, start_order(todo, spec.seeds_of), rows)
+        deadline = None if args.time_limit is None else started + 60.0 * args.time_limit
+        outcomes = _run(ray, spec.cpus_per_trial, start_order(todo, spec.seeds_of), rows, deadline)
     except KeyboardInterrupt:
         print("\ninterrupted: every trial keeps its last checkpoint; run the same command again to resume",
               file=sys.stderr)
@@ -358,11 +369,12 @@ def start_order(todo: list[tuple[Trial, TrialStatus]], seeds_of: Callable[[str],
 
 
 def _run(ray: ModuleType, cpus_per_trial: float, todo: list[tuple[Trial, TrialStatus]],
-         rows: list[TrialStatus]) -> list[TrialOutcome]:
-    """Every trial of ``todo`` as a Ray task; the table is redrawn until the last one ends."""
+         rows: list[TrialStatus], deadline: float | None = None) -> list[TrialOutcome]:
+    """Every trial of ``todo`` as a Ray task (stopping by ``deadline``, a ``time.time()`` value); the table is
+    redrawn until the last one ends."""
     board = ray.remote(num_cpus=0)(ProgressBoard).remote()
     task = ray.remote(run_trial).options(num_cpus=cpus_per_trial, max_retries=0)
-    pending = {task.remote(trial, board): row for trial, row in todo}
+    pending = {task.remote(trial, board, deadline): row for trial, row in todo}
     table, outcomes = LiveTable(), []
     try:
         table.update(rows)
@@ -401,6 +413,8 @@ def _apply(row: TrialStatus, outcome: TrialOutcome) -> None:
     row.state, row.steps = outcome.state, max(row.steps, outcome.steps)
     if outcome.state == "finished":
         row.score, row.note = outcome.score, f"{outcome.seconds:.0f} s"
+    elif outcome.state == "stopped":
+        row.note = "time limit: run again to resume"
     else:
         row.note = outcome.error
 
@@ -413,8 +427,10 @@ def _summary(outcomes: list[TrialOutcome], done_before: int) -> int:
     for o in outcomes:
         for text in o.warnings:
             print(f"warning ({o.key}): {text}", file=sys.stderr)
-    print(f"{len(outcomes)} trials run: {len(outcomes) - len(failed)} finished, {len(failed)} failed; "
-          f"{done_before} had already finished")
+    stopped = sum(o.state == "stopped" for o in outcomes)
+    print(f"{len(outcomes)} trials run: {len(outcomes) - len(failed) - stopped} finished, "
+          + (f"{stopped} stopped at the time limit (run the same command to resume them), " if stopped else "")
+          + f"{len(failed)} failed; {done_before} had already finished")
     return 1 if failed else 0
 
 

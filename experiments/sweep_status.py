@@ -15,7 +15,8 @@ from dataclasses import dataclass
 from typing import TextIO
 
 # "landed": skipped for its export (--skip-landed); the last three are --plan's: what a trial would do
-STATES = ("pending", "running", "finished", "failed", "done before", "landed", "to start", "to resume", "conflict")
+STATES = ("pending", "running", "finished", "stopped", "failed", "done before", "landed", "to start", "to resume",
+          "conflict")
 
 
 class ProgressBoard:

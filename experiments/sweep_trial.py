@@ -22,7 +22,8 @@ REPORT_EVERY_S = 1.0
 
 @dataclass
 class TrialOutcome:
-    """How a trial ended: ``finished`` (with its last evaluation's score) or ``failed`` (with the error)."""
+    """How a trial ended: ``finished`` (with its last evaluation's score), ``stopped`` (at the sweep's time limit,
+    after a checkpoint) or ``failed`` (with the error)."""
 
     key: str
     state: str
@@ -34,9 +35,10 @@ class TrialOutcome:
     warnings: list[str] = field(default_factory=list)
 
 
-def run_trial(trial: Trial, board: Any = None) -> TrialOutcome:
-    """Train ``trial`` to its steps (resuming its checkpoint if there is one); ``board`` is the sweep's progress
-    actor (``report.remote(key, steps)``) or None."""
+def run_trial(trial: Trial, board: Any = None, deadline: float | None = None) -> TrialOutcome:
+    """Train ``trial`` to its steps (resuming its checkpoint if there is one), or until ``deadline`` (a
+    ``time.time()`` value: ``Trainer.train``'s); ``board`` is the sweep's progress actor (``report.remote(key,
+    steps)``) or None."""
     from baselines.training import Trainer
 
     start, steps, trainer = time.perf_counter(), 0, None
@@ -48,15 +50,18 @@ def run_trial(trial: Trial, board: Any = None) -> TrialOutcome:
             steps = state.steps
             if state.kind == "finished":
                 return TrialOutcome(trial.key, "finished", steps=steps)
+            if deadline is not None and time.time() >= deadline:  # not worth building its environments
+                return TrialOutcome(trial.key, "stopped", steps=steps)
             if state.kind == "unstarted":
                 clear_unstarted(trial)
             if report is not None:
                 report(steps, force=True)
             trainer = Trainer(trial.run, trial.out_dir, resume=state.kind == "resume", progress=False,
                               n_threads=trial.threads, on_progress=report)
-            result = trainer.train()
+            result = trainer.train(deadline=deadline)
             steps = trainer.steps
-            outcome = TrialOutcome(trial.key, "finished", steps=steps, score=result.get("score"))
+            outcome = TrialOutcome(trial.key, "stopped" if trainer.stopped_at_deadline else "finished", steps=steps,
+                                   score=result.get("score"))
         except Exception as err:  # noqa: BLE001  (any error of the run is the trial's result, shown by the sweep)
             lines = [line for line in traceback.format_exception_only(type(err), err) if line.strip()]
             steps = trainer.steps if trainer is not None else steps

@@ -25,7 +25,7 @@ from experiments.sweep_plan import (
     parked_source,
 )
 from experiments.sweep_spec import SweepSpecError, build_spec, read_sweep_file
-from experiments.sweep_status import LiveTable, TrialStatus
+from experiments.sweep_status import LiveTable, TrialStatus, render
 
 # The cheapest trial the repo allows: BC on the perfect dataset, tiny network, 100 gradient steps per epoch,
 # one 50-step evaluation episode.
@@ -341,3 +341,26 @@ def test_live_table_redraws_on_a_terminal_and_prints_changes_otherwise():
     live.update(rows)
     live.update(rows)
     assert screen.getvalue().count("\x1b[4F\x1b[J") == 1  # back over the 4 lines drawn, then redrawn
+
+
+def test_a_trial_stops_at_the_sweeps_time_limit_and_the_sweep_says_so(tmp_path, capsys):
+    """run_trial as a Ray worker runs it: past its deadline a trial is not started (nothing written); with time
+    left it trains; a far deadline finishes it. The sweep's summary and table name stopped trials."""
+    import time
+
+    from experiments.sweep_trial import TrialOutcome, run_trial
+
+    trial = tiny_trial(tmp_path)
+    outcome = run_trial(trial, None, deadline=time.time() - 1.0)
+    assert (outcome.state, outcome.steps) == ("stopped", 0) and not trial.out_dir.exists()
+    outcome = run_trial(trial, None, deadline=time.time() + 3600.0)
+    assert (outcome.state, outcome.steps) == ("finished", 200)
+    row = TrialStatus(trial.key, 200)
+    sweep._apply(row, TrialOutcome(trial.key, "stopped", steps=100))
+    assert (row.state, row.steps, row.note) == ("stopped", 100, "time limit: run again to resume")
+    assert "1 stopped" in render([row], None)
+    assert sweep._summary([TrialOutcome("a", "stopped"), TrialOutcome("b", "finished")], 3) == 0
+    assert ("2 trials run: 1 finished, 1 stopped at the time limit (run the same command to resume them), 0 failed; "
+            "3 had already finished") in capsys.readouterr().out
+    assert sweep.main([*TINY, "--out", str(tmp_path), "--time-limit", "0"]) == 2
+    assert "--time-limit must be a positive number of minutes, got 0.0" in capsys.readouterr().err

@@ -5,6 +5,7 @@ import platform
 import shutil
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import mujoco
@@ -386,3 +387,46 @@ def test_logger_mirrors_scalars_to_tensorboard(tmp_path):
     events.Reload()
     assert [(e.step, e.value) for e in events.Scalars("R")] == [(1000, 1.5), (2000, 2.5)]
     assert [e.value for e in events.Scalars("L")] == [20, 30]
+
+
+def test_a_deadline_stops_the_run_after_the_last_checkpoint_that_fits(tmp_path, monkeypatch):
+    """With a fake clock on which each epoch takes 200 s, a deadline 350 s away stops after epoch 1 and 550 s after
+    epoch 2; a deadline already past trains nothing; resumed, a run expects its next epoch to take as long as its
+    log's last rate says, and a far deadline lets it finish."""
+    import types
+
+    import baselines.training as training
+
+    clock = {"now": 1_000_000.0}
+
+    def perf_counter() -> float:  # every reading moves the clock: three readings per epoch, 100 s apart
+        clock["now"] += 100.0
+        return clock["now"]
+
+    monkeypatch.setattr(training, "time", types.SimpleNamespace(time=lambda: clock["now"], perf_counter=perf_counter))
+    for allowed, epochs in ((350.0, 1), (550.0, 2)):
+        trainer = Trainer(tiny_run(), tmp_path / f"limit{allowed:.0f}", progress=False)
+        trainer.train(deadline=clock["now"] + allowed)
+        assert trainer.stopped_at_deadline and (trainer.epoch, trainer.steps) == (epochs, 400 * epochs)
+        assert load_checkpoint(tmp_path / f"limit{allowed:.0f}")["steps"] == 400 * epochs
+        assert len(progress_rows(tmp_path / f"limit{allowed:.0f}")) == epochs
+    late = Trainer(tiny_run(), tmp_path / "late", progress=False)
+    assert late.train(deadline=clock["now"] - 1.0) == {} and late.stopped_at_deadline and late.steps == 0
+    assert not (tmp_path / "late" / "checkpoint.pt").exists()
+
+    monkeypatch.undo()  # real time: the log's rate (steps per second of learning) sizes the first epoch
+    before = load_checkpoint(tmp_path / "limit350")
+    resumed = Trainer(tiny_run(), tmp_path / "limit350", resume=True, progress=False)
+    logged = float(progress_rows_with_rate(tmp_path / "limit350")[-1]["train_steps_per_s"])
+    assert logged == pytest.approx(400 / 100.0)  # learning took 100 fake seconds
+    resumed.train(deadline=time.time() + 0.5 * 400 / logged)  # half the expected epoch left
+    assert resumed.stopped_at_deadline and resumed.steps == 400
+    assert_identical(load_checkpoint(tmp_path / "limit350")["agent"], before["agent"])
+    resumed = Trainer(tiny_run(), tmp_path / "limit350", resume=True, progress=False)
+    resumed.train(deadline=time.time() + 3600.0)
+    assert not resumed.stopped_at_deadline and resumed.steps == 1200
+
+
+def progress_rows_with_rate(directory: Path) -> list[dict[str, str]]:
+    with (directory / "progress.csv").open(newline="") as f:
+        return list(csv.DictReader(f))
