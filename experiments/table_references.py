@@ -21,6 +21,8 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from experiments.table_sources import SeedResult, normalized_scores
 
 SAME_DATA_RTOL = 1e-6  # deterministic references of two builds of one dataset agree to ~1e-9 relative (measured)
@@ -80,7 +82,7 @@ def on_task_references(result: SeedResult, task_refs: dict[str, Any] | None) -> 
                    own_references=own)
 
 
-def own_scores(result: SeedResult):
+def own_scores(result: SeedResult) -> np.ndarray | None:
     """The per-episode scores under the references its evaluation file gave (None for a card)."""
     if result.returns is None or result.references is None:
         return None
