@@ -178,9 +178,14 @@ def tiny_run(algorithm="vail", n_steps=1200):
     return load_run_config("UnitreeH1.walk", algorithm, seed=7, overrides=overrides)
 
 
-def progress_rows(directory: Path) -> list[dict[str, str]]:
+def logged_rows(directory: Path) -> list[dict[str, str]]:
     with (directory / "progress.csv").open(newline="") as f:
-        return [{k: v for k, v in row.items() if k != "train_steps_per_s"} for row in csv.DictReader(f)]
+        return list(csv.DictReader(f))
+
+
+def progress_rows(directory: Path) -> list[dict[str, str]]:
+    """The log without its timing column (which differs between runs that compute the same)."""
+    return [{k: v for k, v in row.items() if k != "train_steps_per_s"} for row in logged_rows(directory)]
 
 
 def assert_identical(a, b, path="state"):
@@ -417,7 +422,7 @@ def test_a_deadline_stops_the_run_after_the_last_checkpoint_that_fits(tmp_path, 
     monkeypatch.undo()  # real time: the log's rate (steps per second of learning) sizes the first epoch
     before = load_checkpoint(tmp_path / "limit350")
     resumed = Trainer(tiny_run(), tmp_path / "limit350", resume=True, progress=False)
-    logged = float(progress_rows_with_rate(tmp_path / "limit350")[-1]["train_steps_per_s"])
+    logged = float(logged_rows(tmp_path / "limit350")[-1]["train_steps_per_s"])
     assert logged == pytest.approx(400 / 100.0)  # learning took 100 fake seconds
     resumed.train(deadline=time.time() + 0.5 * 400 / logged)  # half the expected epoch left
     assert resumed.stopped_at_deadline and resumed.steps == 400
@@ -425,8 +430,3 @@ def test_a_deadline_stops_the_run_after_the_last_checkpoint_that_fits(tmp_path, 
     resumed = Trainer(tiny_run(), tmp_path / "limit350", resume=True, progress=False)
     resumed.train(deadline=time.time() + 3600.0)
     assert not resumed.stopped_at_deadline and resumed.steps == 1200
-
-
-def progress_rows_with_rate(directory: Path) -> list[dict[str, str]]:
-    with (directory / "progress.csv").open(newline="") as f:
-        return list(csv.DictReader(f))
