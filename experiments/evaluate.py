@@ -9,7 +9,9 @@ the deterministic policy (``--stochastic`` adds the stochastic one). Every figur
 bootstrap interval and an interquartile mean (IQM). The normalised score puts a uniformly random policy at 0
 and the expert (the task reward its dataset frames earn, over the horizon) at 100, under the run's own env
 settings. ``--pretrained TASK ALGO [SEED]`` evaluates a pretrained agent (``pretrained/``, training seed 0
-unless given; ``--seed`` stays the evaluation seed) the same way, and prints the score on its card beside.
+unless given; ``--seed`` stays the evaluation seed; or ``--pretrained FOLDER`` for any policy export) the same way, and
+prints the score on its card beside: the card's own figures come from this evaluation of the export
+(``baselines.card_evaluation``), so with the default protocol they repeat exactly on the machine that wrote them.
 ``--metrics`` adds trajectory distances, gait and state-distribution metrics beside the expert's;
 ``--record`` writes an H.264 mp4 of the first episode beside a translucent replay of the reference motion.
 """
@@ -101,6 +103,16 @@ def print_metrics(m: dict) -> None:
         print(f"  {key:<22}{value:12.3f}{expert:12.3f}  ({DISTRIBUTION_UNITS[key]})")
 
 
+def compare_with_card(card: dict, deterministic: dict) -> str:
+    """Whether this deterministic evaluation repeated the card's (same protocol) figures exactly."""
+    now = json.loads(json.dumps({k: deterministic[k] for k in ("R", "L")}, default=float))
+    if all(card.get(k) == now[k] for k in ("R", "L")):
+        return "its card's figures repeated exactly"
+    return (f"its card's figures differ: R {card['R']['mean']:.2f} on the card, {now['R']['mean']:.2f} here (another "
+            "machine's rounding, or a card written before cards evaluated their export: "
+            "python experiments/refresh_cards.py re-evaluates it)")
+
+
 @dataclass
 class Subject:
     """What is evaluated: a checkpoint's agent or a pretrained agent, built only once the outputs are checked."""
@@ -135,16 +147,24 @@ def checkpoint_subject(checkpoint: str) -> Subject:
 
 
 def pretrained_subject(values: list[str]) -> Subject:
-    """A pretrained agent from ``[TASK, ALGO]`` or ``[TASK, ALGO, SEED]``."""
-    from baselines.pretrained import load
+    """A pretrained agent from ``[TASK, ALGO]``, ``[TASK, ALGO, SEED]`` or ``[EXPORT_FOLDER]`` (any policy export,
+    such as a run's snapshot)."""
+    from baselines.pretrained import PretrainedPolicy, load
+    from loco_mujoco.policy_export import PolicyExport
 
-    if len(values) not in (2, 3):
-        raise ValueError(f"--pretrained takes TASK ALGO [SEED], got {len(values)} values: {' '.join(values)}")
-    try:
-        seed = int(values[2]) if len(values) == 3 else 0
-    except ValueError:
-        raise ValueError(f"--pretrained SEED must be an integer, got {values[2]!r}") from None
-    policy = load(values[0], values[1], seed)
+    if len(values) == 1:
+        if not Path(values[0]).is_dir():
+            raise ValueError(f"--pretrained takes TASK ALGO [SEED] or an export folder; {values[0]!r} is no folder")
+        policy = PretrainedPolicy(PolicyExport.load(values[0]))
+    elif len(values) in (2, 3):
+        try:
+            seed = int(values[2]) if len(values) == 3 else 0
+        except ValueError:
+            raise ValueError(f"--pretrained SEED must be an integer, got {values[2]!r}") from None
+        policy = load(values[0], values[1], seed)
+    else:
+        raise ValueError(f"--pretrained takes TASK ALGO [SEED] or an export folder, got {len(values)} values: "
+                         f"{' '.join(values)}")
     card = policy.card
     score = card.get("evaluation", {}).get("score")
     on_card = (f"; its card: score {format_summary(score)} ({card['evaluation']['protocol']['episodes']} episodes)"
@@ -159,7 +179,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("checkpoint", nargs="?", help="checkpoint.pt (or its run directory)")
     parser.add_argument("--pretrained", nargs="+", metavar="TASK ALGO [SEED]",
-                        help="evaluate the pretrained agent of TASK and ALGO (training seed SEED, default 0)")
+                        help="evaluate the pretrained agent of TASK and ALGO (training seed SEED, default 0), or "
+                             "the policy export in a folder")
     parser.add_argument("--episodes", type=int, default=protocol.EPISODES)
     parser.add_argument("--seed", type=int, default=protocol.SEED, help=f"evaluation seed (default {protocol.SEED})")
     parser.add_argument("--stochastic", action="store_true", help="also evaluate the stochastic policy")
@@ -181,7 +202,8 @@ def main(argv: list[str] | None = None) -> int:
             Path(args.json).write_text(json.dumps(rows, indent=1))
         return 0
     if not args.checkpoint and not args.pretrained:
-        parser.error("give a checkpoint to evaluate, --pretrained TASK ALGO [SEED], or --references")
+        parser.error("give a checkpoint to evaluate, --pretrained TASK ALGO [SEED] (or an export folder), or "
+                     "--references")
     if args.checkpoint and args.pretrained:
         parser.error("give either a checkpoint or --pretrained, not both")
 
@@ -230,6 +252,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{name:>13}: score {format_summary(score)}  ({args.episodes} episodes, 95% CI)")
         print(f"{'':>15}R {format_summary(summary['R'])}  L {format_summary(summary['L'])}  "
               f"J {format_summary(summary['J'])}")
+    card = subject.extra.get("card_evaluation")
+    if card and card.get("protocol", {}).get("episodes") == args.episodes and card["protocol"].get("seed") == args.seed:
+        print(compare_with_card(card, results["deterministic"]))
     if args.metrics:
         from loco_mujoco.evaluation.imitation import imitation_metrics
 

@@ -3,8 +3,8 @@
 A finished run (its checkpoint reached ``train.n_steps``) lands as what the table and users read:
 
 - ``results/runs/<name>/``: its config, log and machines (a parked checkpoint of the same run there is removed);
-- ``results/<name>_eval.json``: its evaluation under the protocol (deterministic and stochastic policy, imitation
-  metrics), as ``evaluate.py --metrics --stochastic --json`` writes it;
+- ``results/<name>_eval.json``: the evaluation of its export under the protocol (deterministic and stochastic
+  policy, imitation metrics), as ``evaluate.py --pretrained EXPORT --metrics --stochastic --json`` writes it;
 - ``results/<name>.csv``, ``.png``, ``_references.json``: its learning curve (``plot_results.py``);
 - ``pretrained/<task>/<algo>/seed<N>/``: its policy export, whose card carries that same evaluation;
 - ``results/table.md``, ``table.csv``, ``performance_profile.png``: regenerated.
@@ -182,31 +182,61 @@ def datasets_built_from(export_folder: str) -> list[str]:
 
 
 def card_evaluation(results: dict[str, Any]) -> dict[str, Any]:
-    """The card's evaluation, taken from the evaluation file so the two never disagree."""
+    """The card's evaluation, taken from the evaluation file (of the export) so the two never disagree."""
+    from baselines.card_evaluation import summary_figures
+    from loco_mujoco.evaluation.references import References
+
     det = results["deterministic"]
-    protocol = {"episodes": results["protocol"]["episodes"], "seed": results["protocol"]["seed"],
-                "deterministic": True}
-    return {"protocol": protocol, **{k: det[k] for k in ("score", "R", "J", "L")}}
+    return summary_figures(det["returns"], det, References(**results["references"]), results["protocol"]["episodes"],
+                           results["protocol"]["seed"])
+
+
+def evaluate_export_into(export: Path, evaluation_file: Path, shown_as: Path | None = None) -> dict[str, Any]:
+    """Evaluate the export in ``export`` under the protocol (deterministic and stochastic, imitation metrics) into
+    ``evaluation_file`` (replaced) and put the same figures on its card; the file names the export as ``shown_as``
+    (default: ``export``), relative to the repository where inside it. Returns the evaluation."""
+    from experiments import evaluate
+    from loco_mujoco.policy_export import CARD, write_card
+
+    args = ["--pretrained", str(export), "--metrics", "--stochastic", "--json", str(evaluation_file), "--force"]
+    if evaluate.main(args) != 0:
+        raise RuntimeError(f"the evaluation of the export {export} failed (see above)")
+    evaluation = json.loads(evaluation_file.read_text())
+    evaluation.pop("card_evaluation", None)  # the card's figures before: replaced below
+    shown = Path(shown_as or export).resolve()
+    evaluation["pretrained"] = str(shown.relative_to(REPO)) if shown.is_relative_to(REPO) else str(shown)
+    evaluation_file.write_text(json.dumps(evaluation, indent=1, default=float))
+    card = json.loads((export / CARD).read_text())
+    write_card(export, {**card, "evaluation": card_evaluation(evaluation)})
+    return evaluation
 
 
 def land(run: Run, results: Path, pretrained: Path, replace: bool = False, allow_dataset_change: bool = False,
          table: bool = True) -> Targets:
-    """Land the finished ``run``: log, evaluation, curve, export and the regenerated table (see the module doc)."""
+    """Land the finished ``run``: log, evaluation, curve, export and the regenerated table (see the module doc).
+
+    The evaluation is of the export, the policy users load (``evaluate.py --pretrained`` repeats it), made in a
+    hidden folder beside its target that replaces the target only once everything it needs was written."""
     from baselines.export import export_checkpoint
-    from experiments import evaluate, plot_results, results_table
+    from experiments import plot_results, results_table
 
     targets = plan_landing(run, results, pretrained, replace, allow_dataset_change)
     checkpoint = run.path / CHECKPOINT
-    args = [str(checkpoint), "--metrics", "--stochastic", "--json", str(targets.evaluation), "--force"]
-    if evaluate.main(args) != 0:
-        raise RuntimeError(f"the evaluation of {checkpoint} failed (see above); nothing was landed")
-    evaluation = card_evaluation(json.loads(targets.evaluation.read_text()))
+    staging = targets.export.parent / f".{targets.export.name}.landing"
+    shutil.rmtree(staging, ignore_errors=True)  # a landing that died before it moved its export into place
+    try:
+        export_checkpoint(checkpoint, staging, None, overwrite=True)
+        evaluate_export_into(staging, targets.evaluation, shown_as=targets.export)
+        if targets.export.exists():  # checked by plan_landing: replace was given
+            shutil.rmtree(targets.export)
+        staging.rename(targets.export)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
 
     folder = targets.run_folder
     folder.mkdir(parents=True, exist_ok=True)
     _copy_run_files(run.path, folder, LANDED_FILES, drop_missing=True)  # a replaced run's extra files go too
     plot_results.plot_run(folder, results, force=True)
-    export_checkpoint(checkpoint, targets.export, evaluation, overwrite=targets.export.exists())  # checked above
     if (folder / CHECKPOINT).exists() and folder.resolve() != run.path.resolve():
         (folder / CHECKPOINT).unlink()  # the parked state of this run: its export supersedes it
     if table:

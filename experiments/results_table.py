@@ -210,7 +210,10 @@ def render_markdown(cells: list[Cell], agg: dict[str, dict[str, Any]], inputs: I
         "mode, so rows of one task in different modes compare by normalised score only.",
         "- **score**: normalised (0 = uniformly random policy, 100 = expert), deterministic policy, mean with a 95% "
         "studentized-bootstrap interval over the per-episode scores of all seeds pooled (50 episodes per seed); "
-        "BCa where 60% or more of the values tie, as episode lengths at the horizon do.",
+        "BCa where 60% or more of the values tie, as episode lengths at the horizon do. A row is evaluated on its "
+        "exported policy, the pretrained agent (`evaluate.py --pretrained TASK ALGO [SEED]` repeats its figures and "
+        "its card carries them), except rows without an export, which evaluated their training checkpoint "
+        "(the same policy up to float rounding).",
         "- **seeds**: the training seeds pooled; \"k of n\" where k of the n seeds the grid plans have an evaluation "
         "(`sweeps/table.yaml`, the sweep file that trains every row: `python experiments/sweep.py --config "
         "sweeps/table.yaml`), \"+ m\" for m pooled seeds it does not plan.",

@@ -239,7 +239,13 @@ def write_export(path: str | Path, layers: list[tuple[np.ndarray, np.ndarray]], 
     if distribution == TANH_GAUSSIAN:  # Gaussian cards stay as they were before other distributions existed
         policy.update(distribution=distribution, log_std_min=float(log_std_bounds[0]),
                       log_std_max=float(log_std_bounds[1]))
-    card = {**card, "policy": policy}
-    (path / CARD).write_text(json.dumps(card, indent=1, sort_keys=True, default=float) + "\n")
+    write_card(path, {**card, "policy": policy})
     (path / CONFIG).write_text(yaml.safe_dump(config, sort_keys=False))
     return path
+
+
+def write_card(path: str | Path, card: dict[str, Any]) -> Path:
+    """Write ``card`` as the card of the export folder ``path`` (sorted keys, one space indent)."""
+    with atomic_write(Path(path) / CARD, "w") as handle:
+        handle.write(json.dumps(card, indent=1, sort_keys=True, default=float) + "\n")
+    return Path(path) / CARD

@@ -9,6 +9,7 @@ import pytest
 import torch
 from conftest import TINY_TRAINING
 
+from experiments import evaluate
 from experiments.land_run import (
     LandingRefused,
     card_evaluation,
@@ -88,6 +89,11 @@ def test_landing_writes_everything_from_one_evaluation_and_never_overwrites(fini
     assert all(p.exists() for p in targets.curves)
     card = json.loads((targets.export / "card.json").read_text())
     assert card["evaluation"] == json.loads(json.dumps(card_evaluation(evaluation)))  # the same numbers, once
+    assert evaluation["pretrained"] == str(targets.export.resolve()) and "card_evaluation" not in evaluation
+    assert card["evaluation"]["references"]["random_return"] == evaluation["references"]["random_return"]
+    assert not any(p.name.endswith(".landing") for p in targets.export.parent.iterdir())  # no staging folder left
+    assert evaluate.main(["--pretrained", str(targets.export)]) == 0  # what was landed is what users evaluate
+    assert "its card's figures repeated exactly" in capsys.readouterr().out
     assert card["steps"] == 200 and card["seed"] == 3 and targets.export == pretrained / "UnitreeH1.walk/gaifo/seed3"
     table = (results / "table.md").read_text()
     score = evaluation["deterministic"]["score"]["mean"]
