@@ -2,7 +2,7 @@
 
     python experiments/evaluate.py runs/UnitreeH1.walk_vail/checkpoint.pt [--metrics] [--record] [--json F]
     python experiments/evaluate.py --pretrained UnitreeH1.walk vail [SEED] [--metrics] [--record] [--json F]
-    python experiments/evaluate.py --references [TASK ...]
+    python experiments/evaluate.py --references [TASK ...] [--env control=pd ...]
 
 The protocol (loco_mujoco.evaluation.protocol): 50 episodes from dataset start states drawn with seed 12345,
 the deterministic policy (``--stochastic`` adds the stochastic one). Every figure is a mean with a 95%
@@ -63,21 +63,37 @@ def tasks_with_data() -> list[str]:
     return names
 
 
-def print_references(tasks: list[str], refresh: bool) -> list[dict]:
-    """One line per task: expert, random, zero-action and hold-pose returns and the stand-still scores."""
+def parse_env_settings(items: list[str]) -> dict[str, Any]:
+    """``["control=pd", "horizon=500"]`` -> ``{"control": "pd", "horizon": 500}`` (values read as YAML)."""
+    import yaml
+
+    settings = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise ValueError(f"--env takes KEY=VALUE settings (e.g. control=pd), got {item!r}")
+        settings[key] = yaml.safe_load(value)
+    return settings
+
+
+def print_references(tasks: list[str], refresh: bool, env_kwargs: dict[str, Any] | None = None) -> list[dict]:
+    """One line per task: expert, random, zero-action and hold-pose returns and the stand-still scores, under
+    ``env_kwargs`` (default: each task's own defaults); the settings each was measured under follow the table."""
     from tqdm import tqdm
 
     rows = []
     print(f"{'task':<34}{'expert R':>10}{'random R':>10}{'+- (se)':>9}{'random L':>10}{'zero R':>9}{'zero L':>8}"
           f"{'hold R':>9}{'hold L':>8}{'zero score':>12}{'hold score':>12}")
     for task in tqdm(tasks, desc="references", unit="task", leave=False):
-        refs = references(task, refresh=refresh)
+        refs = references(task, env_kwargs, refresh=refresh)
         s = stand_still_scores(refs)
         tqdm.write(f"{task:<34}{refs.expert_return:10.1f}{refs.random_return:10.1f}{refs.random_return_se:9.2f}"
                    f"{refs.random_length:10.1f}"
                    f"{refs.zero_return:9.1f}{refs.zero_length:8.0f}{refs.hold_return:9.1f}{refs.hold_length:8.0f}"
                    f"{s['zero']:12.2f}{s['hold']:12.2f}")
         rows.append({"task": task, **refs.__dict__, "stand_still_scores": s})
+    for row in rows:
+        print(f"{row['task']}: measured under {', '.join(f'{k}={v}' for k, v in row['env_settings'].items())}")
     return rows
 
 
@@ -193,14 +209,23 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--references", nargs="*", metavar="TASK",
                         help="list the reference returns of these tasks (default: every task with data)")
     parser.add_argument("--refresh", action="store_true", help="recompute cached references")
+    parser.add_argument("--env", nargs="+", default=[], metavar="KEY=VALUE",
+                        help="with --references: env settings to measure under (e.g. control=pd; default: each "
+                             "task's own; the results table's are in results/references/<task>.json)")
     args = parser.parse_args(argv)
     if args.episodes < 1:
         parser.error(f"--episodes must be at least 1, got {args.episodes}")
     if args.references is not None:
-        rows = print_references(args.references or tasks_with_data(), args.refresh)
+        try:
+            rows = print_references(args.references or tasks_with_data(), args.refresh, parse_env_settings(args.env))
+        except (ValueError, TypeError) as err:
+            print(f"error: {err}", file=sys.stderr)
+            return 2
         if args.json:
             Path(args.json).write_text(json.dumps(rows, indent=1))
         return 0
+    if args.env:
+        parser.error("--env applies to --references (an agent is evaluated under the settings it trained with)")
     if not args.checkpoint and not args.pretrained:
         parser.error("give a checkpoint to evaluate, --pretrained TASK ALGO [SEED] (or an export folder), or "
                      "--references")

@@ -243,3 +243,17 @@ def test_evaluate_cli_lists_references(tmp_path, capsys):
     assert all(r["expert_return"] > r["random_return"] > r["hold_return"] - 50 for r in rows)
     printed = capsys.readouterr().out
     assert "UnitreeH1.walk" in printed and "hold score" in printed
+    assert "UnitreeH1.walk: measured under random_start=True" in printed  # its defaults: torque control
+
+    assert main(["--references", "UnitreeH1.walk", "--env", "control=pd", "horizon=1000", "--json", str(out)]) == 0
+    (pd,) = json.loads(out.read_text())
+    assert pd["env_settings"] == {"control": "'pd'", "horizon": "1000", "random_start": "True"}
+    assert pd["expert_return"] == pytest.approx(rows[0]["expert_return"])  # the same frames, the same reward
+    assert pd["hold_return"] != rows[0]["hold_return"]  # held by the PD servos, not by torques
+    assert "measured under control='pd', horizon=1000" in capsys.readouterr().out
+    assert main(["--references", "UnitreeH1.walk", "--env", "control=bogus"]) == 2
+    assert "invalid control for UnitreeH1 'bogus'; valid: torque, pd" in capsys.readouterr().err
+    assert main(["--references", "UnitreeH1.walk", "--env", "pd"]) == 2
+    assert "--env takes KEY=VALUE settings (e.g. control=pd), got 'pd'" in capsys.readouterr().err
+    with pytest.raises(SystemExit):  # an agent is evaluated under the settings it trained with
+        main([*VAIL_PRETRAINED, "--env", "control=torque"])
