@@ -5,6 +5,7 @@ import hashlib
 import json
 import math
 import shutil
+from pathlib import Path
 
 import pytest
 
@@ -12,6 +13,7 @@ from baselines.card_evaluation import evaluate_export
 from experiments import evaluate, refresh_cards
 from loco_mujoco.agent_datasets import pretrained_root
 
+REPO = Path(__file__).resolve().parent.parent
 BC = "UnitreeH1.walk/bc/seed0"  # episodes of ~36 steps: the cheapest committed export to evaluate
 
 
@@ -78,3 +80,25 @@ def test_refresh_and_evaluate_name_what_is_not_an_export(tmp_path, capsys):
     assert "takes TASK ALGO [SEED] or an export folder" in capsys.readouterr().err
     assert evaluate.main(["--pretrained", str(tmp_path)]) == 2
     assert "is not a policy export: missing" in capsys.readouterr().err
+
+
+def test_evaluation_files_are_re_evaluated_from_the_export(export, tmp_path, capsys):
+    results = tmp_path / "results"
+    results.mkdir()
+    shutil.copy(REPO / "results" / "UnitreeH1.walk_bc_eval.json", results)
+    (results / "other_eval.json").write_text(json.dumps({"task": "UnitreeH1.walk", "algorithm": "bc", "seed": 0,
+                                                          "steps": 1}))  # another run: left alone
+    before_other = (results / "other_eval.json").read_bytes()
+    assert refresh_cards.main([str(export), "--evaluation-files", str(results)]) == 0
+    assert "re-evaluated UnitreeH1.walk_bc_eval.json" in capsys.readouterr().out
+    evaluation = json.loads((results / "UnitreeH1.walk_bc_eval.json").read_text())
+    card = json.loads((export / "card.json").read_text())["evaluation"]
+    assert evaluation["pretrained"] == str(export.resolve()) and {"stochastic", "metrics"} <= set(evaluation)
+    assert card["R"] == evaluation["deterministic"]["R"] and card["score"] == evaluation["deterministic"]["score"]
+    assert (results / "other_eval.json").read_bytes() == before_other
+
+    shutil.copy(results / "UnitreeH1.walk_bc_eval.json", results / "UnitreeH1.walk_bc_copy_eval.json")
+    assert refresh_cards.main([str(export), "--evaluation-files", str(results)]) == 2  # which one? nothing done
+    assert "several evaluation files hold ('UnitreeH1.walk', 'bc', 0, 100000)" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        refresh_cards.main([str(export), "--check", "--evaluation-files", str(results)])
