@@ -33,12 +33,23 @@ def exports_under(root: Path) -> list[Path]:
     return sorted(p.parent for p in root.rglob(WEIGHTS) if (p.parent / CARD).is_file())
 
 
-def evaluation_file_of(card: dict, results: Path) -> Path | None:
-    """The evaluation file in ``results`` of the training run whose export carries ``card`` (task, algorithm, seed
-    and steps equal); None if there is none; ``ValueError`` if several match."""
-    key = tuple(card.get(k) for k in ("task", "algorithm", "seed", "steps"))
-    found = [p for p in sorted(results.glob("*_eval.json"))
-             if tuple(json.loads(p.read_text()).get(k) for k in ("task", "algorithm", "seed", "steps")) == key]
+RUN_KEY = ("task", "algorithm", "seed", "steps")  # what names one training run in a card and an evaluation file
+
+
+def evaluation_files_by_run(results: Path) -> dict[tuple, list[Path]]:
+    """The evaluation files in ``results`` grouped by training run (each file read once)."""
+    index: dict[tuple, list[Path]] = {}
+    for path in sorted(results.glob("*_eval.json")):
+        data = json.loads(path.read_text())
+        index.setdefault(tuple(data.get(k) for k in RUN_KEY), []).append(path)
+    return index
+
+
+def evaluation_file_of(card: dict, index: dict[tuple, list[Path]]) -> Path | None:
+    """The evaluation file (of ``evaluation_files_by_run``) of the training run whose export carries ``card``;
+    None if there is none; ``ValueError`` if several match."""
+    key = tuple(card.get(k) for k in RUN_KEY)
+    found = index.get(key, [])
     if len(found) > 1:
         raise ValueError(f"several evaluation files hold {key}: {', '.join(map(str, found))}")
     return found[0] if found else None
@@ -82,7 +93,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
 
     try:  # which evaluation file each export's run has, settled before any work
-        files = {p: evaluation_file_of(json.loads((p / CARD).read_text()), args.evaluation_files)
+        index = evaluation_files_by_run(args.evaluation_files) if args.evaluation_files else {}
+        files = {p: evaluation_file_of(json.loads((p / CARD).read_text()), index)
                  for p in exports} if args.evaluation_files else {}
     except ValueError as err:
         print(f"error: {err}", file=sys.stderr)
