@@ -164,6 +164,24 @@ def migrate_run_config(c: dict[str, Any]) -> dict[str, Any]:
     return c
 
 
+@dataclasses.dataclass(frozen=True)
+class EpochPace:
+    """How long an epoch took: ``learn_s`` seconds of learning for its ``steps`` (and, for an off-policy agent,
+    its ``updates``), plus ``other_s`` of evaluation and checkpoint. A later epoch is expected to take as long per
+    step, or per update where that says longer: an off-policy epoch that was partly warm-up (steps without
+    updates, ~4x faster) would otherwise make a full epoch look shorter than it is."""
+
+    learn_s: float
+    steps: int
+    updates: int | None = None
+    other_s: float = 0.0
+
+    def expected_s(self, steps: int, updates: int | None = None) -> float:
+        by_steps = self.learn_s * steps / self.steps
+        by_updates = self.learn_s * updates / self.updates if updates is not None and self.updates else 0.0
+        return self.other_s + max(by_steps, by_updates)
+
+
 class Trainer:
     """Runs (or resumes) ``run`` in ``out_dir``; ``train()`` returns the last evaluation.
 
@@ -237,11 +255,12 @@ class Trainer:
         """Train to ``run.train.n_steps``, an evaluation and a checkpoint after every epoch; with ``deadline`` (a
         ``time.time()`` value) stop instead after the last checkpoint whose next epoch is not expected to end by
         then (``stopped_at_deadline`` says so; the run resumes from that checkpoint). The next epoch is expected
-        to take as long as this call's last one (learning, evaluation and checkpoint) or, before it, as its steps
-        at the rate the run last logged."""
+        to take as long as this call's last one (learning, evaluation and checkpoint) or, before it, as the epoch
+        the run last logged; for an off-policy agent by its updates where they say longer than its steps, so an
+        epoch that was half warm-up (no updates) does not make the next one look half as long (:class:`EpochPace`)."""
         run, last_eval = self.run, {}
         self.stopped_at_deadline = False
-        epoch_s = self._logged_epoch_s()
+        pace = self._logged_pace()
         if self.collector is None:
             core = Core(self.agent, self.env, callbacks_fit=[self._on_fit])
         else:
@@ -256,9 +275,10 @@ class Trainer:
                 n -= n % run.train.n_steps_per_fit
                 if n == 0:
                     break
-                if deadline is not None and time.time() + (epoch_s or 0.0) * n / run.train.epoch_steps > deadline:
+                if deadline is not None and time.time() + self._expected_s(pace, n) > deadline:
                     self.stopped_at_deadline = True
                     break
+                updates_before = self._agent_updates()
                 epoch_start = start = time.perf_counter()
                 self._learn(core, n)
                 train_s = time.perf_counter() - start
@@ -280,7 +300,8 @@ class Trainer:
                 self._bar.set_postfix(score=f"{last_eval['score']:.1f}", L=f"{last_eval['L']:.0f}",
                                       R=f"{last_eval['R']:.1f}",
                                       task_r=f"{last_eval['task_reward']:.3f}")
-                epoch_s = (time.perf_counter() - epoch_start) * run.train.epoch_steps / n
+                updates = None if updates_before is None else self._agent_updates() - updates_before
+                pace = EpochPace(train_s, n, updates, other_s=time.perf_counter() - epoch_start - train_s)
         finally:
             self._bar.close()
             self.agent.stop()
@@ -289,14 +310,34 @@ class Trainer:
                 self.collector.close()  # its worker threads; a later train() steps the envs in this thread
         return last_eval
 
-    def _logged_epoch_s(self) -> float | None:
-        """Seconds of learning one full epoch took at the rate the run's log last recorded (None: no log yet)."""
+    def _logged_pace(self) -> EpochPace | None:
+        """The pace of the last epoch in the run's log: its steps over the logged learning rate, and its updates
+        where the log counts them (None: no log yet)."""
         path = self.out_dir / "progress.csv"
         if not path.exists():
             return None
         with path.open(newline="") as f:
-            rates = [float(r["train_steps_per_s"]) for r in csv.DictReader(f) if r.get("train_steps_per_s")]
-        return self.run.train.epoch_steps / rates[-1] if rates and rates[-1] > 0 else None
+            rows = [r for r in csv.DictReader(f) if r.get("train_steps_per_s")]
+        if not rows or float(rows[-1]["train_steps_per_s"]) <= 0:
+            return None
+        last, before = rows[-1], (rows[-2] if len(rows) > 1 else {})
+        steps = int(float(last["step"])) - int(float(before.get("step") or 0))
+        if steps <= 0:
+            steps = self.run.train.epoch_steps
+        updates = None
+        if last.get("updates") and self._agent_updates() is not None:
+            updates = int(float(last["updates"])) - int(float(before.get("updates") or 0))
+        return EpochPace(steps / float(last["train_steps_per_s"]), steps, updates)
+
+    def _agent_updates(self) -> int | None:
+        """The updates an off-policy agent has made so far (None for agents whose cost is per step)."""
+        return int(self.agent.updates) if hasattr(self.agent, "updates_in") else None
+
+    def _expected_s(self, pace: EpochPace | None, n: int) -> float:
+        """Seconds the next epoch of ``n`` steps is expected to take (0 when nothing has been measured yet)."""
+        if pace is None:
+            return 0.0
+        return pace.expected_s(n, self.agent.updates_in(n) if pace.updates is not None else None)
 
     def _learn(self, core: Core | None, n: int) -> None:
         """``n`` steps of training: environment steps for on-policy agents (``Core`` with one env, or the batched

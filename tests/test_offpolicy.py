@@ -534,3 +534,57 @@ def test_critic_probe_command_reads_a_run_directory(tmp_path, capsys):
         assert "no checkpoint at" in capsys.readouterr().err
     finally:
         torch.set_num_threads(threads)
+
+
+def test_a_deadline_counts_an_offpolicy_epochs_updates_not_its_warm_up_steps(tmp_path, monkeypatch):
+    """On a clock where each update takes 1 s and nothing else takes time, the first epoch (300 steps, 150 of them
+    warm-up) takes 151 s and a full one 300 s: a deadline 401 s away stops after the first epoch instead of
+    overrunning it by 50 s (a per-step estimate expected 151 s). Resumed with its buffer, the log's pace gives the
+    same estimate; without the buffer the warm-up refills and the shorter epoch fits."""
+    import shutil
+    import types
+
+    import baselines.training as training
+    from baselines.training import REPLAY, EpochPace, Trainer
+
+    def run():
+        return load_run_config("UnitreeH1.walk.perfect", "sqil", overrides={
+            "train": {"n_steps": 1500, "epoch_steps": 300, "n_eval_episodes": 1}, "env": {"horizon": 50},
+            "agent": {**SMALL, "initial_samples": 150}})
+
+    current: dict = {}
+
+    def clock() -> float:
+        agent = current.get("agent")
+        return 1_000_000.0 + (agent.updates if agent is not None else 0)
+
+    monkeypatch.setattr(training, "time", types.SimpleNamespace(time=clock, perf_counter=clock))
+    threads = torch.get_num_threads()
+    try:
+        trainer = Trainer(run(), tmp_path / "run", progress=False)
+        current["agent"] = trainer.agent
+        assert trainer.agent.updates_in(300) == 151 and trainer.agent.updates_in(100) == 0
+        trainer.train(deadline=clock() + 401.0)
+        assert trainer.stopped_at_deadline and (trainer.steps, trainer.agent.updates) == (300, 151)
+        assert trainer.agent.updates_in(300) == 300
+        shutil.copytree(tmp_path / "run", tmp_path / "nobuffer")
+        (tmp_path / "nobuffer" / REPLAY).unlink()
+
+        resumed = Trainer(run(), tmp_path / "run", resume=True, progress=False)
+        current["agent"] = resumed.agent
+        resumed.train(deadline=clock() + 250.0)  # 300 updates expected from the log's 151 s for 151 updates
+        assert resumed.stopped_at_deadline and resumed.steps == 300
+        resumed.train(deadline=clock() + 350.0)
+        assert resumed.stopped_at_deadline and (resumed.steps, resumed.agent.updates) == (600, 451)
+
+        with pytest.warns(UserWarning, match="continues as a warm start"):
+            refilled = Trainer(run(), tmp_path / "nobuffer", resume=True, progress=False)
+        current["agent"] = refilled.agent
+        assert refilled.agent.updates_in(300) == 151  # the buffer refills its warm-up first
+        refilled.train(deadline=clock() + 250.0)
+        assert refilled.stopped_at_deadline and refilled.steps == 600
+    finally:
+        torch.set_num_threads(threads)
+    pace = EpochPace(learn_s=151.0, steps=300, updates=151, other_s=2.0)
+    assert pace.expected_s(300, 300) == 302.0 and pace.expected_s(300, 0) == 153.0  # the larger of the two
+    assert EpochPace(learn_s=100.0, steps=400).expected_s(200) == 50.0  # agents without updates: per step

@@ -240,6 +240,12 @@ class OffPolicyImitation(Agent):
         ``load_state_dict``, which restores the value a checkpointed run used."""
         self.warmup = max(min(self.config.initial_samples, int(n_steps) // 10), self.config.batch_size)
 
+    def updates_in(self, n_steps: int) -> int:
+        """Updates the next ``n_steps`` transitions will make: none for those still filling the warm-up (a fresh
+        run's first ``warmup``, or a resumed one's while its replay buffer refills)."""
+        waiting = max(self.warmup - self.buffer.n_added - 1, 0)
+        return max(int(n_steps) - waiting, 0) * self.config.updates_per_step
+
     @property
     def alpha(self) -> float:
         return float(self.log_alpha.exp())
