@@ -199,6 +199,8 @@ def evaluate_export_into(export: Path, evaluation_file: Path, shown_as: Path | N
     from loco_mujoco.policy_export import CARD, write_card
 
     args = ["--pretrained", str(export), "--metrics", "--stochastic", "--json", str(evaluation_file), "--force"]
+    if shown_as is not None and Path(shown_as).resolve() != Path(export).resolve():  # the header names the folder
+        print(f"evaluating the export staged in {export}; it moves to {shown_as} once its evaluation is written")
     if evaluate.main(args) != 0:
         raise RuntimeError(f"the evaluation of the export {export} failed (see above)")
     evaluation = json.loads(evaluation_file.read_text())

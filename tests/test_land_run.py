@@ -81,6 +81,8 @@ def test_landing_writes_everything_from_one_evaluation_and_never_overwrites(fini
     park(read_run(unfinished_copy(finished, tmp_path / "half")), results)  # an earlier state, superseded
     run = read_run(finished)
     targets = land(run, results, pretrained)
+    staged = targets.export.parent / f".{targets.export.name}.landing"
+    assert f"evaluating the export staged in {staged}; it moves to {targets.export}" in capsys.readouterr().out
 
     assert sorted(p.name for p in targets.run_folder.iterdir()) == ["config.yaml", "machines.csv", "progress.csv"]
     evaluation = json.loads(targets.evaluation.read_text())
