@@ -320,13 +320,19 @@ class Trainer:
             rows = [r for r in csv.DictReader(f) if r.get("train_steps_per_s")]
         if not rows or float(rows[-1]["train_steps_per_s"]) <= 0:
             return None
-        last, before = rows[-1], (rows[-2] if len(rows) > 1 else {})
-        steps = int(float(last["step"])) - int(float(before.get("step") or 0))
-        if steps <= 0:
-            steps = self.run.train.epoch_steps
+        last, epoch_steps = rows[-1], self.run.train.epoch_steps
+        if len(rows) > 1:
+            before = rows[-2]
+        elif int(float(last["step"])) <= epoch_steps:  # the run's first epoch, from step 0
+            before = {"step": 0, "updates": 0}
+        else:  # a warm start's first epoch: its counts continue another run's, its length is unknown
+            return EpochPace(epoch_steps / float(last["train_steps_per_s"]), epoch_steps)
+        steps = int(float(last["step"])) - int(float(before["step"]))
+        if not 0 < steps <= epoch_steps:
+            return EpochPace(epoch_steps / float(last["train_steps_per_s"]), epoch_steps)
         updates = None
-        if last.get("updates") and self._agent_updates() is not None:
-            updates = int(float(last["updates"])) - int(float(before.get("updates") or 0))
+        if last.get("updates") and before.get("updates") not in (None, "") and self._agent_updates() is not None:
+            updates = int(float(last["updates"])) - int(float(before["updates"]))
         return EpochPace(steps / float(last["train_steps_per_s"]), steps, updates)
 
     def _agent_updates(self) -> int | None:

@@ -585,6 +585,14 @@ def test_a_deadline_counts_an_offpolicy_epochs_updates_not_its_warm_up_steps(tmp
         assert refilled.stopped_at_deadline and refilled.steps == 600
     finally:
         torch.set_num_threads(threads)
+    log = tmp_path / "nobuffer" / "progress.csv"  # the log's last epoch, as a resume reads it
+    header = "step,train_steps_per_s,updates\n"
+    for rows, expected in ((["300,2.0,151"], EpochPace(150.0, 300, 151)),  # the first epoch, from step 0
+                           (["300,2.0,151", "600,1.0,451"], EpochPace(300.0, 300, 300)),
+                           (["15300,2.0,9000"], EpochPace(150.0, 300)),  # a warm start's: counts continue another run
+                           (["300,2.0,151", "450,1.0,301"], EpochPace(150.0, 150, 150))):  # a shorter last epoch
+        log.write_text(header + "\n".join(rows) + "\n")
+        assert refilled._logged_pace() == expected, rows
     pace = EpochPace(learn_s=151.0, steps=300, updates=151, other_s=2.0)
     assert pace.expected_s(300, 300) == 302.0 and pace.expected_s(300, 0) == 153.0  # the larger of the two
     assert EpochPace(learn_s=100.0, steps=400).expected_s(200) == 50.0  # agents without updates: per step
