@@ -321,19 +321,15 @@ class Trainer:
         if not rows or float(rows[-1]["train_steps_per_s"]) <= 0:
             return None
         last, epoch_steps = rows[-1], self.run.train.epoch_steps
-        if len(rows) > 1:
-            before = rows[-2]
-        elif int(float(last["step"])) <= epoch_steps:  # the run's first epoch, from step 0
-            before = {"step": 0, "updates": 0}
-        else:  # a warm start's first epoch: its counts continue another run's, its length is unknown
-            return EpochPace(epoch_steps / float(last["train_steps_per_s"]), epoch_steps)
+        rate = float(last["train_steps_per_s"])
+        before = rows[-2] if len(rows) > 1 else {"step": "0", "updates": "0"}  # one row: the epoch from step 0
         steps = int(float(last["step"])) - int(float(before["step"]))
-        if not 0 < steps <= epoch_steps:
-            return EpochPace(epoch_steps / float(last["train_steps_per_s"]), epoch_steps)
+        if not 0 < steps <= epoch_steps:  # a warm start's first row (its counts continue another run's) or odd rows
+            return EpochPace(epoch_steps / rate, epoch_steps)
         updates = None
-        if last.get("updates") and before.get("updates") not in (None, "") and self._agent_updates() is not None:
+        if last.get("updates") and before.get("updates") and self._agent_updates() is not None:
             updates = int(float(last["updates"])) - int(float(before["updates"]))
-        return EpochPace(steps / float(last["train_steps_per_s"]), steps, updates)
+        return EpochPace(steps / rate, steps, updates)
 
     def _agent_updates(self) -> int | None:
         """The updates an off-policy agent has made so far (None for agents whose cost is per step)."""

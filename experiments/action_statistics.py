@@ -4,8 +4,8 @@ HumanoidMuscle.walk vail``.
 Over the protocol's first ``--episodes`` start states (deterministic policy, as the table evaluates it) and as many
 episodes of uniformly random actions in [-1, 1], prints the episode length, the fraction of action components at
 a bound (|a| >= 0.99; uniform actions: 0.01), the mean step-to-step change |a_t - a_(t-1)| (uniform: 2/3) and the
-mean action. A policy that sits on its bounds and changes its actions as much as random ones do acts bang-bang:
-for muscle excitations (-1 relaxed, +1 fully excited) that is what this diagnoses.
+mean action. A policy with many actions on its bounds acts bang-bang; the step change says whether it switches
+them as often as random actions do or holds them (for muscle excitations: -1 relaxed, +1 fully excited).
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from loco_mujoco.evaluation import protocol  # noqa: E402
+from loco_mujoco.evaluation.references import random_policy  # noqa: E402
 
 AT_BOUND = 0.99  # |a| at or above this counts as saturated
 
@@ -57,12 +58,6 @@ def act_statistics(env, policy: Callable[[np.ndarray], np.ndarray], n_episodes: 
     return statistics(np.split(np.array(actions), ends[:-1]))
 
 
-def uniform_policy(act_dim: int, seed: int) -> Callable[[np.ndarray], np.ndarray]:
-    """Uniformly random actions in [-1, 1] from a seeded generator (the random reference's policy)."""
-    rng = np.random.default_rng(seed)
-    return lambda obs: rng.uniform(-1.0, 1.0, act_dim)
-
-
 def render(task: str, algo: str, seed: int, rows: dict[str, dict[str, float]], n_episodes: int) -> str:
     lines = [f"{algo} on {task}, seed {seed}: actions over the protocol's first {n_episodes} start states",
              f"{'policy':<28}{'L':>8}{'at a bound':>12}{'step change':>13}{'mean action':>13}"]
@@ -95,7 +90,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     env = protocol.evaluation_env(policy.task, policy.env_kwargs)
     rows = {"pretrained (deterministic)": act_statistics(env, policy.draw_action, args.episodes),
-            "uniformly random": act_statistics(env, uniform_policy(policy.act_dim, protocol.SEED), args.episodes)}
+            "uniformly random": act_statistics(env, random_policy(env, protocol.SEED), args.episodes)}
     print(render(policy.task, policy.algorithm, policy.seed, rows, args.episodes))
     if args.json:
         Path(args.json).write_text(json.dumps({"task": policy.task, "algorithm": policy.algorithm,
