@@ -245,7 +245,10 @@ def render_markdown(cells: list[Cell], agg: dict[str, dict[str, Any]], inputs: I
         "\"did not learn\", its figures kept; an off-policy row whose critics' values passed 1.25x the range its "
         "rewards allow says \"critic diverged\", and one whose training ended with the critic valuing the agent's own "
         "states within 5% of the lowest value its targets allow (0 for SQIL, -200 for LS-IQ) says \"critic "
-        "saturated\" (experiments/critic_values.py); a row whose run was configured "
+        "saturated\" (experiments/critic_values.py); one whose run was continued on a fresh machine from its "
+        "committed state, which keeps no replay buffer, says \"resumed without its replay buffer\" and where (the "
+        "updates after it drew on a refilled buffer of the latest policy's transitions: not the run an uninterrupted "
+        "seed gives); a row whose run was configured "
         "otherwise than the committed config now is (trained before a default changed) says \"trained with\" and "
         "each such value beside today's (budget, threads and control mode aside: they have their own columns); then "
         "which data, evaluations and runs the row rests on.",

@@ -48,6 +48,8 @@ from experiments.table_sources import (
     read_card,
     read_config,
     read_evaluation,
+    read_progress,
+    replay_refills,
     training_runs,
 )
 from loco_mujoco.evaluation.aggregate import aggregate_iqm, performance_profile
@@ -247,9 +249,10 @@ def _empty(cell: Cell, runs: list[TrainingRun]) -> None:
 
 
 def _note_critic(cell: Cell, budgets: list[Budget]) -> None:
-    """A "critic diverged" note per seed whose training log passed its critic's bound and a "critic saturated" note
-    per seed whose log ends with the agent's states at the critic's floor (:mod:`experiments.critic_values`); the
-    config beside the log (a run directory's), else the committed one."""
+    """A "critic diverged" note per seed whose training log passed its critic's bound, a "critic saturated" note
+    per seed whose log ends with the agent's states at the critic's floor (:mod:`experiments.critic_values`), and a
+    "resumed without its replay buffer" note per seed whose log shows a refilled buffer; the config beside the log
+    (a run directory's), else the committed one."""
     for budget in budgets:
         if budget.log_path is None:
             continue
@@ -258,9 +261,21 @@ def _note_critic(cell: Cell, budgets: list[Budget]) -> None:
             committed = committed_config(cell.task, cell.algorithm)
             config = {"env": committed.env, "agent": committed.agent.to_dict()}
         for note in (divergence_note(cell.algorithm, config, budget.log_path),
-                     saturation_note(cell.algorithm, config, budget.log_path)):
+                     saturation_note(cell.algorithm, config, budget.log_path), _refill_note(budget.log_path)):
             if note:
                 cell.notes.append(f"{note}; {budget.log}" if len(budgets) > 1 else note)
+
+
+def _refill_note(log: Path) -> str | None:
+    """"resumed without its replay buffer at ..." where an off-policy log shows the buffer refilled after a resume
+    (:func:`~experiments.table_sources.replay_refills`): those updates drew on the policy's latest transitions only,
+    so the run is not the uninterrupted one its seed would give."""
+    refills = replay_refills(read_progress(log)) if log.exists() else []
+    if not refills:
+        return None
+    where = ", ".join(f"{format_steps(step)} ({size:,} transitions at the next row, not {before + size:,})"
+                      for step, size, before in refills)
+    return f"resumed without its replay buffer at {where}"
 
 
 # Values a row's runs may differ in from the committed config without the note below: the budget (its own column),

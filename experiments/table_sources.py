@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import ast
 import csv
+import itertools
 import json
 import math
 from dataclasses import dataclass, field
@@ -169,6 +170,15 @@ def read_progress(path: Path) -> list[dict[str, float]]:
     """Rows of a training log, every value a float (NaN where empty)."""
     with path.open(newline="") as f:
         return [{k: float(v) if v not in ("", None) else math.nan for k, v in row.items()} for row in csv.DictReader(f)]
+
+
+def replay_refills(rows: list[dict[str, float]]) -> list[tuple[int, int, int]]:
+    """``(step resumed at, replay_size logged next, replay_size before)`` for each resume that found no replay
+    buffer (a warm start from a committed state): the logged ``replay_size`` fell from one row to the next, which
+    a buffer never does otherwise (full, it stays at its capacity). Empty for logs without the column."""
+    sizes = [(int(r["step"]), r.get("replay_size", math.nan)) for r in rows]
+    return [(step, int(size), int(before)) for (step, before), (_, size) in itertools.pairwise(sizes)
+            if size < before]
 
 
 def read_config(run_dir: Path) -> dict[str, Any] | None:

@@ -244,6 +244,24 @@ def test_a_row_whose_critic_ends_at_its_floor_says_critic_saturated(dirs):
         assert not any("critic saturated" in n for n in rows[key].notes), key
 
 
+def test_a_row_resumed_without_its_replay_buffer_says_where(dirs):
+    """A resume from a committed state (no buffer) shows in the log as replay_size falling; the row names it."""
+    from experiments.table_sources import replay_refills
+
+    results, runs = dirs
+    _offpolicy_run(runs, "Talos.walk_sqil", "Talos.walk", "sqil", "replay_size",
+                   [20_000, 40_000, 20_000, 40_000, 60_000, 20_000])  # refilled at 60k and at 100k
+    _offpolicy_run(runs, "Atlas.walk_sqil", "Atlas.walk", "sqil", "replay_size", [20_000, 40_000, 60_000])
+    _offpolicy_run(runs, "Talos.walk_lsiq", "Talos.walk", "lsiq", "replay_size", [500_000, 500_000])  # full: stays
+    rows, _ = table(results, runs)
+    assert rows["Talos.walk", "sqil"].notes[-1] == (
+        "resumed without its replay buffer at 40k (20,000 transitions at the next row, not 60,000), 100k (20,000 "
+        "transitions at the next row, not 80,000)")
+    for key in (("Atlas.walk", "sqil"), ("Talos.walk", "lsiq")):
+        assert not any("replay buffer" in n for n in rows[key].notes), key
+    assert replay_refills([{"step": 1000.0}, {"step": 2000.0}]) == []  # on-policy logs have no replay_size
+
+
 def test_saturation_warning_while_training():
     from experiments.critic_values import saturation_warning
 
