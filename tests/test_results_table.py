@@ -250,7 +250,7 @@ def test_a_row_resumed_without_its_replay_buffer_says_where(dirs):
 
     results, runs = dirs
     _offpolicy_run(runs, "Talos.walk_sqil", "Talos.walk", "sqil", "replay_size",
-                   [20_000, 40_000, 20_000, 40_000, 60_000, 20_000])  # refilled at 60k and at 100k
+                   [20_000, 40_000, 20_000, 40_000, 60_000, 20_000])  # resumed without it at 40k and at 100k
     _offpolicy_run(runs, "Atlas.walk_sqil", "Atlas.walk", "sqil", "replay_size", [20_000, 40_000, 60_000])
     _offpolicy_run(runs, "Talos.walk_lsiq", "Talos.walk", "lsiq", "replay_size", [500_000, 500_000])  # full: stays
     rows, _ = table(results, runs)
