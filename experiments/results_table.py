@@ -229,7 +229,9 @@ def render_markdown(cells: list[Cell], agg: dict[str, dict[str, Any]], inputs: I
         "(learning only: without the per-epoch evaluation and checkpoint; the runs shared their CPUs with others), "
         "'-' where no complete log is found; **machine**: the processor model, its widest vector instructions "
         "(recorded since 2026-11-28: virtual machines show one model name for processors 3.5-4x apart, AVX-512 "
-        "against AVX2) and CPU count that trained each stretch of the run, from the run's `machines.csv` (written "
+        "against AVX2; and since 2026-12-02 the x86 family and model, which separate Zen 4 (family 25) from Zen 5 "
+        "(family 26), 2.4x apart in matrix products) and CPU count that trained each stretch of the run, from the "
+        "run's `machines.csv` (written "
         "at every start and resume since 2026-11-27; '-' for older runs).",
         "- **random / hold / expert R**: the returns of the task's references (uniformly random actions, a "
         "controller holding the home pose, the expert's dataset frames) that the row's scores are normalised by: one "

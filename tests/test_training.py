@@ -26,7 +26,15 @@ from baselines.common.inverse_dynamics import (  # noqa: E402
     inverse_dynamics_actions,
     inverse_dynamics_report,
 )
-from baselines.common.machine import cpu_model, describe, read_machines, record_machine, vector_isa  # noqa: E402
+from baselines.common.machine import (  # noqa: E402
+    cpu_generation,
+    cpu_model,
+    describe,
+    read_machines,
+    record_machine,
+    usable_cpus,
+    vector_isa,
+)
 from baselines.config import CONFIG_DIR, ConfigError, flat_config, load_run_config, parse_overrides  # noqa: E402
 from baselines.export import export_checkpoint  # noqa: E402
 from baselines.training import Trainer, load_checkpoint  # noqa: E402
@@ -255,7 +263,10 @@ def test_machine_log_drops_unsaved_stretches(tmp_path):
                                                                              ("400", "1", describe())]
     assert describe(16).endswith("(16 CPUs)") and describe(16).startswith(cpu_model()) and cpu_model()
     if platform.machine() == "x86_64":  # the vector instructions name the machine kind beside the model
-        assert vector_isa() in ("AVX-512", "AVX2", "AVX") and f", {vector_isa()} (" in describe()
+        assert vector_isa() in ("AVX-512", "AVX2", "AVX") and f", {vector_isa()}, " in describe()
+        family, model = cpu_generation().removeprefix("family ").split(" model ")  # e.g. Zen 4 against Zen 5
+        assert family.isdigit() and model.isdigit()
+        assert describe().endswith(f", {vector_isa()}, {cpu_generation()} ({usable_cpus()} CPUs)")
 
 
 def test_resume_drops_log_rows_of_an_unsaved_epoch_and_refuses_mismatches(tmp_path):

@@ -4,7 +4,9 @@ The results table states its hours "on the machine kind used"; a run resumed els
 then a 2-core one) has one row per stretch, each with the step it started from, so the table can say which
 machine trained which steps (``experiments.table_sources.machine_summary``). The name carries the widest vector
 instructions the processor has, because virtual machines hide the model behind one name: two "AMD EPYC" machines
-here trained 3.5-4x apart (AVX-512 Zen 5 at ~3,500 env steps/s on UnitreeA1.simple GAIL, AVX2 at ~950).
+here trained 3.5-4x apart (AVX-512 Zen 5 at ~3,500 env steps/s on UnitreeA1.simple GAIL, AVX2 at ~950). The x86
+family and model numbers follow it: AVX-512 alone does not tell Zen 4 (family 25) from Zen 5 (family 26), whose matrix
+products ran 2.4x apart here (BENCHMARKS.md).
 """
 
 from __future__ import annotations
@@ -41,6 +43,24 @@ def vector_isa() -> str | None:
                 None)
 
 
+def cpu_generation() -> str | None:
+    """The x86 ``family F model M`` of ``/proc/cpuinfo`` (a processor generation), else None."""
+    try:
+        lines = Path("/proc/cpuinfo").read_text().splitlines()
+    except OSError:
+        return None
+    fields = {}
+    for line in lines:
+        key, _, value = line.partition(":")
+        if key.strip() in ("cpu family", "model") and key.strip() not in fields:
+            fields[key.strip()] = value.strip()
+        if not line.strip() and fields:  # the first processor's block is enough
+            break
+    if not {"cpu family", "model"} <= fields.keys():
+        return None
+    return f"family {fields['cpu family']} model {fields['model']}"
+
+
 def usable_cpus() -> int:
     """CPUs this process may run on (its affinity where the OS tells it, else the machine's count)."""
     try:
@@ -50,9 +70,9 @@ def usable_cpus() -> int:
 
 
 def describe(cpus: int | None = None) -> str:
-    """A short name of the machine kind, e.g. ``AMD EPYC, AVX2 (2 CPUs)``."""
-    isa = vector_isa()
-    return f"{cpu_model()}{f', {isa}' if isa else ''} ({cpus or usable_cpus()} CPUs)"
+    """A short name of the machine kind, e.g. ``AMD EPYC, AVX-512, family 25 model 17 (2 CPUs)``."""
+    details = "".join(f", {part}" for part in (vector_isa(), cpu_generation()) if part)
+    return f"{cpu_model()}{details} ({cpus or usable_cpus()} CPUs)"
 
 
 def read_machines(run_dir: str | Path) -> list[dict[str, str]]:
