@@ -12,6 +12,7 @@ products ran 2.4x apart here (BENCHMARKS.md).
 from __future__ import annotations
 
 import csv
+import functools
 import os
 import platform
 import time
@@ -21,42 +22,42 @@ MACHINES = "machines.csv"
 FIELDS = ("step", "machine", "cpus", "torch_threads", "started")
 
 
+@functools.cache
+def _first_processor() -> dict[str, str]:
+    """The first processor's fields of ``/proc/cpuinfo`` (``model name``, ``flags``, ...); {} where there is none.
+
+    Read once a process: the fields used here do not change while it runs."""
+    try:
+        lines = Path("/proc/cpuinfo").read_text().splitlines()
+    except OSError:
+        return {}
+    fields: dict[str, str] = {}
+    for line in lines:
+        if not line.strip() and fields:  # the end of the first processor's block
+            break
+        key, sep, value = line.partition(":")
+        if sep:
+            fields.setdefault(key.strip(), value.strip())
+    return fields
+
+
 def cpu_model() -> str:
     """The processor's model name (``/proc/cpuinfo``), else what ``platform`` knows of it."""
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return " ".join(line.split(":", 1)[1].split())
-    except OSError:
-        pass
-    return platform.processor() or platform.machine() or "unknown CPU"
+    name = _first_processor().get("model name")
+    return " ".join(name.split()) if name else platform.processor() or platform.machine() or "unknown CPU"
 
 
 def vector_isa() -> str | None:
     """The widest x86 vector instruction set the processor reports (``AVX-512``, ``AVX2``, ``AVX``), else None."""
-    try:
-        text = Path("/proc/cpuinfo").read_text()
-    except OSError:
-        return None
-    flags = next((set(line.split(":", 1)[1].split()) for line in text.splitlines() if line.startswith("flags")), set())
+    flags = set(_first_processor().get("flags", "").split())
     return next((name for flag, name in (("avx512f", "AVX-512"), ("avx2", "AVX2"), ("avx", "AVX")) if flag in flags),
                 None)
 
 
 def cpu_generation() -> str | None:
     """The x86 ``family F model M`` of ``/proc/cpuinfo`` (a processor generation), else None."""
-    try:
-        lines = Path("/proc/cpuinfo").read_text().splitlines()
-    except OSError:
-        return None
-    fields = {}
-    for line in lines:
-        key, _, value = line.partition(":")
-        if key.strip() in ("cpu family", "model") and key.strip() not in fields:
-            fields[key.strip()] = value.strip()
-        if not line.strip() and fields:  # the first processor's block is enough
-            break
-    if not {"cpu family", "model"} <= fields.keys():
+    fields = _first_processor()
+    if "cpu family" not in fields or "model" not in fields:
         return None
     return f"family {fields['cpu family']} model {fields['model']}"
 
