@@ -194,6 +194,13 @@ def compute_lines(cells: list[Cell]) -> list[str]:
     return lines
 
 
+def family_budgets() -> str:
+    """The table's budget per algorithm family, as the committed configs of the grid's first task set them."""
+    families = (("on-policy", "vail"), ("off-policy", "sqil"), ("BC", "bc"))
+    return ", ".join(f"{name} {format_steps(committed_config(TASKS[0], algo).train.n_steps)} "
+                     f"{'gradient' if is_offline(algo) else 'env'} steps" for name, algo in families)
+
+
 def render_markdown(cells: list[Cell], agg: dict[str, dict[str, Any]], inputs: Inputs) -> str:
     """The table, the aggregate and where every figure came from."""
     filled = sum(c.status == OK for c in cells)
@@ -250,7 +257,9 @@ def render_markdown(cells: list[Cell], agg: dict[str, dict[str, Any]], inputs: I
         "saturated\" (experiments/critic_values.py); one whose run was continued on a fresh machine from its "
         "committed state, which keeps no replay buffer, says \"resumed without its replay buffer\" and where (the "
         "updates after it drew on a refilled buffer of the latest policy's transitions: not the run an uninterrupted "
-        "seed gives); a row whose run was configured "
+        f"seed gives); a seed trained for fewer steps than its family's budget ({family_budgets()}: the committed "
+        "`train.n_steps` the sweep trains) says \"trained N of the table's M\" (the row does not meet the table's "
+        "budget yet); a row whose run was configured "
         "otherwise than the committed config now is (trained before a default changed) says \"trained with\" and "
         "each such value beside today's (budget, threads and control mode aside: they have their own columns); then "
         "which data, evaluations and runs the row rests on.",

@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from baselines import is_offline
 from experiments.critic_values import divergence_note, saturation_note
 from experiments.sweep_spec import build_spec, read_sweep_file
 from experiments.table_references import (
@@ -308,6 +309,18 @@ def _note_config_changes(cell: Cell, results: list[SeedResult], budgets: list[Bu
             cell.notes.append(f"{seed}trained with {'; '.join(changes)}")
 
 
+def _note_short_budgets(cell: Cell, results: list[SeedResult], budgets: list[Budget]) -> None:
+    """A note per seed trained for fewer steps than the table's budget for its family (the committed config's
+    ``train.n_steps``, which the sweep trains each trial for): such a row does not yet meet the table's budget."""
+    budget = committed_config(cell.task, cell.algorithm).train.n_steps
+    unit = "gradient" if is_offline(cell.algorithm) else "env"
+    for result, used in zip(results, budgets, strict=True):
+        if used.steps < budget:
+            seed = f"seed {result.seed} " if len(results) > 1 else ""
+            cell.notes.append(f"{seed}trained {format_steps(used.steps)} of the table's {format_steps(budget)} "
+                              f"{unit} steps")
+
+
 def committed_control(cell: Cell) -> str | None:
     """The control that the committed config of the row's task and algorithm names (None: the task's default)."""
     return committed_config(cell.task, cell.algorithm).env.get("control")
@@ -340,6 +353,7 @@ def _fill(cell: Cell, results: list[SeedResult], results_dir: Path, runs_dir: Pa
     if cell.control != committed:
         cell.notes.append(f"trained in {cell.control} control; the committed config now asks for {committed}")
     cell.budgets = [find_budget(r, runs_dir, results_dir) for r in results]
+    _note_short_budgets(cell, results, cell.budgets)
     _note_config_changes(cell, results, cell.budgets)
     _note_critic(cell, cell.budgets)
     if results[0].data == "perfect":

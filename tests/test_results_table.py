@@ -146,6 +146,22 @@ def test_a_row_not_beating_random_actions_says_did_not_learn(dirs):
     assert all(DID_NOT_LEARN not in c.notes for c in rows.values() if c.status != "ok")
 
 
+def test_a_seed_trained_short_of_its_familys_budget_says_so(dirs):
+    """The committed budgets (20M env steps on-policy, 500k off-policy, 100k gradient steps for BC): a seed below
+    its family's is named with its steps; one at or above it is not."""
+    results, runs = dirs
+    write_eval(results, "UnitreeH1.walk", "lsiq", 0, np.full(10, 68.0), steps=300_000)
+    write_eval(results, "UnitreeH1.walk", "lsiq", 1, np.full(10, 68.0), steps=500_000)
+    write_eval(results, "Atlas.walk", "vail", 0, np.full(10, 68.0), steps=38_200_000)
+    write_eval(results, "Atlas.walk", "bc", 0, np.full(10, 68.0), steps=20_000)
+    rows, _ = table(results, runs)
+    lsiq = rows["UnitreeH1.walk", "lsiq"].notes
+    assert "seed 0 trained 300k of the table's 500k env steps" in lsiq
+    assert not any("seed 1 trained" in n for n in lsiq)
+    assert not any("of the table's" in n for n in rows["Atlas.walk", "vail"].notes)
+    assert "trained 20k of the table's 100k gradient steps" in rows["Atlas.walk", "bc"].notes
+
+
 def test_perfect_data_superseded_seeds_and_runs_without_evaluation(dirs):
     results, runs = dirs
     write_eval(results, "UnitreeH1.walk.perfect", "bc", 0, np.full(10, 116.0), steps=20_000)
